@@ -1,0 +1,35 @@
+// C API of the friction laws for Python (ctypes): the same code the MuJoCo plugin runs, driven
+// along a recorded or prescribed relative-velocity history (identification, kinematic limits,
+// hysteresis plots). Keep the struct layout in sync with vibrofriction/_native.py.
+#ifndef VIBROFRICTION_C_API_H_
+#define VIBROFRICTION_C_API_H_
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct vf_law_parameters {
+  int law;  // 0 coulomb, 1 dahl, 2 dupont, 3 lugre
+  double friction_coefficient, normal_force, contact_stiffness, alpha, breakaway_ratio,
+      bristle_damping, viscous, static_ratio, stribeck_velocity, asymmetry, ripple,
+      ripple_wavelength, ripple_phase, normal_modulation, normal_modulation_frequency,
+      normal_modulation_phase, force_offset;
+} vf_law_parameters;
+
+// Version of this C API (bump on any layout change) and the MuJoCo header it was built with.
+int vf_api_version(void);
+int vf_mujoco_header_version(void);
+
+// Runs the law along samples i = 0..n-1. Force i uses (z_i, v_i); z_{i+1} advances z_i over
+// [t_i, t_{i+1}] with the input at t_{i+1}, as the plugin does (force with the old state, update
+// with the new velocity). position and normal_force may be NULL (0 and the constant normal).
+// Writes force_out[n] (N) and deflection_out[n] (m). Returns 0, or -1 on bad arguments.
+int vf_run_law(const vf_law_parameters* params, int n, const double* time,
+               const double* velocity, const double* position, const double* normal_force,
+               double z0, double* force_out, double* deflection_out);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif  // VIBROFRICTION_C_API_H_

@@ -1,0 +1,64 @@
+// Actuator (+ optional sensor) plugin "vibrofriction.friction": a dynamic friction element on one
+// actuator transmission (a slide joint of a body relative to its support, or a fixed tendon
+// x_body - x_support). The transmission velocity is the relative velocity v_r; the actuator
+// applies -F_F. The deflection z is mjData.act[actadr] (declare actdim="1").
+//
+// The force of step n uses (z_n, v_n); after MuJoCo integrates the velocity, `advance` replaces z
+// by the closed-form (Dahl, LuGre) or unconditionally stable (Dupont) update with the *new*
+// velocity v_{n+1}: a symplectic-Euler pair that neither pumps energy into a stuck contact nor
+// diverges at dt = 1e-4 s. act_dot stays 0 because z is not integrated by MuJoCo.
+#ifndef VIBROFRICTION_FRICTION_ELEMENT_H_
+#define VIBROFRICTION_FRICTION_ELEMENT_H_
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <mujoco/mujoco.h>
+
+#include "friction_law.h"
+
+namespace vibrofriction {
+
+struct FrictionConfig {
+  LawParameters law;
+  int actuator = -1;        // actuator id backed by the instance
+  int output = -1;          // its force-output address
+  int act_address = -1;     // z lives at act[act_address]
+  int normal_sensor = -1;   // sensor id whose value adds to the normal force, -1: none
+  int normal_component = 0; // component of that sensor
+  double normal_gain = 1.0; // F_N = normal + normal_gain * sensor value
+  double sensor_lag = 0.0;  // first-order lag of the reported friction force (s)
+
+  // Reads and validates every attribute; returns false after one mju_warning naming it.
+  static bool FromModel(const mjModel* m, int instance, FrictionConfig* config);
+};
+
+class FrictionElement {
+ public:
+  static constexpr char kName[] = "vibrofriction.friction";
+  static constexpr int kSensorDim = 5;  // F_F, z, v_r, F_N (modulated), F_F lagged
+
+  static std::unique_ptr<FrictionElement> Create(const mjModel* m, int instance);
+  static void RegisterPlugin();
+
+  void Compute(const mjModel* m, mjData* d, int instance);
+  void ComputeSensor(const mjModel* m, mjData* d, int instance);
+  void Advance(const mjModel* m, mjData* d, int instance);
+  static int StateSize(const mjModel* m, int instance);
+
+ private:
+  explicit FrictionElement(FrictionConfig config, std::string fingerprint);
+  // Re-reads the config when stepped with a model whose attributes differ from the cached ones.
+  bool Refresh(const mjModel* m, int instance);
+  LawInput Input(const mjModel* m, const mjData* d, double velocity) const;
+
+  FrictionConfig config_;
+  std::string fingerprint_;
+  bool valid_ = true;
+  std::vector<mjtNum> scratch_;
+};
+
+}  // namespace vibrofriction
+
+#endif  // VIBROFRICTION_FRICTION_ELEMENT_H_

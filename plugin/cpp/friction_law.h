@@ -1,0 +1,87 @@
+// The friction laws of vibrofriction: the one implementation used by the MuJoCo plugin,
+// by identification (through the C API in c_api.cc) and by the plots.
+//
+// Sign convention: v is the relative sliding velocity v_r = xdot - udot of the body over its
+// support; the friction force F is the force the support exerts *against* that motion, so F > 0
+// when v > 0 in steady sliding. The deflection z (m) is the bristle / asperity deflection.
+//
+// Laws (see plugin/cpp/README.md for the equations and sources):
+//   coulomb  F = g(v) sgn(v) + s2 v, stick handled by the caller (StickSlipForce)
+//   dahl     dz/dt = v |w|^alpha sgn(w), w = 1 - k_t z sgn(v) / F_c     (Dahl 1968)
+//   dupont   dz/dt = v (1 - a(z, v) z / z_ss(v))                         (Dupont et al. 2002)
+//   lugre    dz/dt = v - |v| z s0 / g(v)                                 (Canudas de Wit 1995)
+// with g(v) = F_c + (F_s - F_c) exp(-(v/v_s)^2), F_c = mu F_N (times the effect factors).
+#ifndef VIBROFRICTION_FRICTION_LAW_H_
+#define VIBROFRICTION_FRICTION_LAW_H_
+
+namespace vibrofriction {
+
+enum class Law : int { kCoulomb = 0, kDahl = 1, kDupont = 2, kLuGre = 3 };
+
+// Parameters of one friction element; names follow the Python FrictionParameters.
+struct LawParameters {
+  Law law = Law::kDahl;
+  double friction_coefficient = 0.2;         // mu (-)
+  double normal_force = 0.0;                 // F_N (N), constant part
+  double contact_stiffness = 8e7;            // k_t = sigma0 (N/m)
+  double alpha = 1.0;                        // Dahl shape exponent (-)
+  double breakaway_ratio = 0.7;              // Dupont z_ba / z_ss at the Coulomb level (-)
+  double bristle_damping = 0.0;              // sigma1 (N s/m)
+  double viscous = 0.0;                      // sigma2 (N s/m)
+  double static_ratio = 1.0;                 // F_s / F_c (-)
+  double stribeck_velocity = 1e-3;           // v_s (m/s)
+  // effects, 0 = off
+  double asymmetry = 0.0;                    // level x(1+a) for v>0, x(1-a) for v<0
+  double ripple = 0.0;                       // level x(1 + r sin(2 pi x/lambda + phi))
+  double ripple_wavelength = 1e-3;           // lambda (m)
+  double ripple_phase = 0.0;                 // phi (rad)
+  double normal_modulation = 0.0;            // F_N x(1 + m sin(2 pi f_m t + phi_m))
+  double normal_modulation_frequency = 0.0;  // f_m (Hz)
+  double normal_modulation_phase = 0.0;      // phi_m (rad)
+  double force_offset = 0.0;                 // constant added to F (N)
+};
+
+// What the law sees at one instant besides its state.
+struct LawInput {
+  double velocity = 0.0;      // v_r (m/s)
+  double position = 0.0;      // relative position of the body on its support (m)
+  double time = 0.0;          // (s), for the normal-load modulation
+  double normal_force = 0.0;  // F_N (N) before modulation (config + sensor input)
+};
+
+// Coulomb level F_c (N) for the direction of motion `direction` (+1 / -1 / 0) with all effects.
+double CoulombLevel(const LawParameters& p, const LawInput& in, double direction);
+
+// Stribeck curve g (N) at the input's velocity: F_c + (F_s - F_c) exp(-(v/v_s)^2).
+double StribeckLevel(const LawParameters& p, const LawInput& in);
+
+// Deflection rate dz/dt (m/s) at state z.
+double DeflectionRate(const LawParameters& p, const LawInput& in, double z);
+
+// Deflection after a step dt (s) with the input held constant. Exact for Dahl (any alpha) and
+// LuGre; for Dupont an exact elastic segment then backward-Euler substeps of the plastic part.
+// Unconditionally stable: the result never overshoots the steady deflection.
+double AdvanceDeflection(const LawParameters& p, const LawInput& in, double z, double dt);
+
+// Friction force F (N) of a state law at deflection z (not for Coulomb).
+double StateForce(const LawParameters& p, const LawInput& in, double z);
+
+// Rigid Coulomb with a time-stepping stick/slip decision. `stick_force` is the force that
+// brings v_r to zero at the end of the step; the element sticks when it is within the static
+// level, else it slides at the kinetic level in the direction of `stick_force`.
+double StickSlipForce(const LawParameters& p, const LawInput& in, double stick_force);
+
+// Coulomb force when the velocity is prescribed (kinematic driving, identification): no stick
+// solve is possible, so F = g(v) sgn(v) + s2 v + offset (0 + offset at v = 0).
+double KinematicCoulombForce(const LawParameters& p, const LawInput& in);
+
+// True for the laws that keep a deflection state.
+inline bool HasDeflection(Law law) { return law != Law::kCoulomb; }
+
+// Parses "coulomb" | "dahl" | "dupont" | "lugre"; returns false on anything else.
+bool ParseLaw(const char* name, Law* law);
+const char* LawName(Law law);
+
+}  // namespace vibrofriction
+
+#endif  // VIBROFRICTION_FRICTION_LAW_H_

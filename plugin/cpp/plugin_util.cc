@@ -1,0 +1,99 @@
+#include "plugin_util.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+
+namespace vibrofriction {
+
+bool ReadNumber(const mjModel* m, int instance, const char* plugin, const char* attr,
+                double default_value, double* out) {
+  const char* text = mj_getPluginConfig(m, instance, attr);
+  if (text == nullptr || text[0] == '\0') {
+    *out = default_value;
+    return true;
+  }
+  char* end = nullptr;
+  errno = 0;
+  const double value = std::strtod(text, &end);
+  while (end && (*end == ' ' || *end == '\t')) ++end;
+  if (end == text || (end && *end != '\0') || errno == ERANGE || !std::isfinite(value)) {
+    mju_warning("%s: attribute '%s'=\"%s\" is not a finite number; write a plain number, "
+                "e.g. %s=\"%g\"", plugin, attr, text, attr, default_value);
+    return false;
+  }
+  *out = value;
+  return true;
+}
+
+std::string ConfigFingerprint(const mjModel* m, int instance) {
+  const int begin = m->plugin_attradr[instance];
+  const int end = instance + 1 < m->nplugin ? m->plugin_attradr[instance + 1] : m->npluginattr;
+  return std::string(m->plugin_attr + begin, m->plugin_attr + end);
+}
+
+int FindActuator(const mjModel* m, int instance, const char* plugin) {
+  int found = -1;
+  for (int i = 0; i < m->nu; ++i) {
+    if (m->actuator_plugin[i] != instance) continue;
+    if (found != -1) {
+      mju_warning("%s: one plugin instance backs several actuators; give each actuator its "
+                  "own <plugin> element", plugin);
+      return -1;
+    }
+    found = i;
+  }
+  if (found == -1) {
+    mju_warning("%s: no actuator uses this plugin instance; reference it from an "
+                "<actuator><plugin .../> element", plugin);
+  }
+  return found;
+}
+
+double TransmissionVelocity(const mjModel* m, const mjData* d, int out) {
+  const int adr = d->moment_rowadr[out];
+  double velocity = 0.0;
+  for (int k = 0; k < d->moment_rownnz[out]; ++k) {
+    velocity += d->actuator_moment[adr + k] * d->qvel[d->moment_colind[adr + k]];
+  }
+  return velocity;
+}
+
+StepResponse ComputeStepResponse(const mjModel* m, mjData* d, int out,
+                                 std::vector<mjtNum>* scratch) {
+  const int nv = m->nv;
+  scratch->assign(3 * nv, 0.0);
+  mjtNum* force = scratch->data();
+  mjtNum* solved = force + nv;
+  mjtNum* row = force + 2 * nv;
+
+  // Generalized force known so far: passive - bias + applied + other actuators' outputs.
+  for (int i = 0; i < nv; ++i) {
+    force[i] = d->qfrc_passive[i] - d->qfrc_bias[i] + d->qfrc_applied[i];
+  }
+  for (int j = 0; j < m->nout; ++j) {
+    if (j == out || d->actuator_force[j] == 0) continue;
+    const int adr = d->moment_rowadr[j];
+    for (int k = 0; k < d->moment_rownnz[j]; ++k) {
+      force[d->moment_colind[adr + k]] += d->actuator_moment[adr + k] * d->actuator_force[j];
+    }
+  }
+  const int adr = d->moment_rowadr[out];
+  const int nnz = d->moment_rownnz[out];
+  for (int k = 0; k < nnz; ++k) row[d->moment_colind[adr + k]] = d->actuator_moment[adr + k];
+
+  StepResponse response;
+  mj_solveM(m, d, solved, force, 1);
+  double acceleration_free = 0.0;
+  for (int k = 0; k < nnz; ++k) {
+    acceleration_free += d->actuator_moment[adr + k] * solved[d->moment_colind[adr + k]];
+  }
+  mj_solveM(m, d, solved, row, 1);
+  for (int k = 0; k < nnz; ++k) {
+    response.inverse_mass += d->actuator_moment[adr + k] * solved[d->moment_colind[adr + k]];
+  }
+  response.velocity_free = d->actuator_velocity[out] + m->opt.timestep * acceleration_free;
+  return response;
+}
+
+}  // namespace vibrofriction

@@ -1,0 +1,11 @@
+// Registers the vibrofriction engine plugins when the library is loaded
+// (vibrofriction.load() calls mj_loadPluginLibrary on it).
+#include <mujoco/mjplugin.h>
+
+#include "friction_element.h"
+#include "support_motion.h"
+
+mjPLUGIN_LIB_INIT(vibrofriction) {
+  vibrofriction::FrictionElement::RegisterPlugin();
+  vibrofriction::SupportMotion::RegisterPlugin();
+}

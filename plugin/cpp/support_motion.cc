@@ -1,0 +1,132 @@
+#include "support_motion.h"
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <utility>
+
+#include "plugin_util.h"
+
+namespace vibrofriction {
+namespace {
+
+constexpr char kFrequency[] = "frequency";
+constexpr char kVelocityAmplitude[] = "velocity_amplitude";
+constexpr char kVelocity[] = "velocity";
+constexpr char kPhase[] = "phase";
+constexpr char kUseCtrl[] = "use_ctrl";
+const char* const kAttributes[] = {kFrequency, kVelocityAmplitude, kVelocity, kPhase, kUseCtrl};
+constexpr char kPlugin[] = "vibrofriction.motion";
+constexpr double kPi = 3.14159265358979323846;
+
+}  // namespace
+
+bool MotionConfig::FromModel(const mjModel* m, int instance, MotionConfig* config) {
+  MotionConfig c;
+  if (!ReadNumber(m, instance, kPlugin, kFrequency, 0.0, &c.frequency) ||
+      !ReadNumber(m, instance, kPlugin, kVelocityAmplitude, 0.0, &c.velocity_amplitude) ||
+      !ReadNumber(m, instance, kPlugin, kVelocity, 0.0, &c.velocity) ||
+      !ReadNumber(m, instance, kPlugin, kPhase, 0.0, &c.phase)) {
+    return false;
+  }
+  if (c.frequency < 0) {
+    mju_warning("%s: attribute 'frequency'=\"%g\" must be >= 0 (Hz)", kPlugin, c.frequency);
+    return false;
+  }
+  if (c.velocity_amplitude < 0) {
+    mju_warning("%s: attribute 'velocity_amplitude'=\"%g\" must be >= 0 (m/s)", kPlugin,
+                c.velocity_amplitude);
+    return false;
+  }
+  if (c.velocity_amplitude > 0 && c.frequency == 0) {
+    mju_warning("%s: velocity_amplitude is set but frequency is 0; set frequency (Hz)", kPlugin);
+    return false;
+  }
+  const char* use_ctrl = mj_getPluginConfig(m, instance, kUseCtrl);
+  if (use_ctrl && use_ctrl[0]) {
+    if (std::strcmp(use_ctrl, "true") == 0) {
+      c.use_ctrl = true;
+    } else if (std::strcmp(use_ctrl, "false") != 0) {
+      mju_warning("%s: attribute 'use_ctrl'=\"%s\" must be \"true\" or \"false\"", kPlugin,
+                  use_ctrl);
+      return false;
+    }
+  }
+  c.actuator = FindActuator(m, instance, kPlugin);
+  if (c.actuator < 0) return false;
+  c.output = m->actuator_outadr[c.actuator];
+  *config = c;
+  return true;
+}
+
+double MotionConfig::Displacement(double t, double amplitude_scale) const {
+  double s = velocity * t;
+  if (frequency > 0 && velocity_amplitude > 0) {
+    const double omega = 2 * kPi * frequency;
+    s += amplitude_scale * velocity_amplitude / omega * (std::sin(omega * t + phase) - std::sin(phase));
+  }
+  return s;
+}
+
+SupportMotion::SupportMotion(MotionConfig config, std::string fingerprint)
+    : config_(std::move(config)), fingerprint_(std::move(fingerprint)) {}
+
+std::unique_ptr<SupportMotion> SupportMotion::Create(const mjModel* m, int instance) {
+  MotionConfig config;
+  if (!MotionConfig::FromModel(m, instance, &config)) return nullptr;
+  return std::unique_ptr<SupportMotion>(new SupportMotion(config, ConfigFingerprint(m, instance)));
+}
+
+bool SupportMotion::Refresh(const mjModel* m, int instance) {
+  std::string fingerprint = ConfigFingerprint(m, instance);
+  if (fingerprint == fingerprint_) return valid_;
+  fingerprint_ = std::move(fingerprint);
+  valid_ = MotionConfig::FromModel(m, instance, &config_);
+  return valid_;
+}
+
+void SupportMotion::Compute(const mjModel* m, mjData* d, int instance) {
+  const int out = config_.output;
+  if (!Refresh(m, instance)) {
+    d->actuator_force[out] = 0;
+    return;
+  }
+  const double dt = m->opt.timestep;
+  const double scale = config_.use_ctrl ? d->ctrl[config_.actuator] : 1.0;
+  // Position target at the end of the step; the semi-implicit position update
+  // s_{n+1} = s_n + dt v_{n+1} then lands on it (no drift in position or phase).
+  const double target = m->actuator_length0[out] + config_.Displacement(d->time + dt, scale);
+  const double velocity_target = (target - d->actuator_length[out]) / dt;
+  const StepResponse response = ComputeStepResponse(m, d, out, &scratch_);
+  d->actuator_force[out] = response.inverse_mass > 0
+                               ? (velocity_target - response.velocity_free) /
+                                     (dt * response.inverse_mass)
+                               : 0.0;
+}
+
+void SupportMotion::RegisterPlugin() {
+  mjpPlugin plugin;
+  mjp_defaultPlugin(&plugin);
+  plugin.name = kName;
+  plugin.capabilityflags |= mjPLUGIN_ACTUATOR;
+  plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
+  plugin.attributes = kAttributes;
+  plugin.nstate = +[](const mjModel* m, int instance) { return 0; };
+  plugin.init = +[](const mjModel* m, mjData* d, int instance) {
+    std::unique_ptr<SupportMotion> motion = SupportMotion::Create(m, instance);
+    if (motion == nullptr) return -1;
+    d->plugin_data[instance] = reinterpret_cast<uintptr_t>(motion.release());
+    return 0;
+  };
+  plugin.destroy = +[](mjData* d, int instance) {
+    delete reinterpret_cast<SupportMotion*>(d->plugin_data[instance]);
+    d->plugin_data[instance] = 0;
+  };
+  plugin.reset = +[](const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {};
+  plugin.compute = +[](const mjModel* m, mjData* d, int instance, int capability_bit) {
+    reinterpret_cast<SupportMotion*>(d->plugin_data[instance])->Compute(m, d, instance);
+  };
+  mjp_registerPlugin(&plugin);
+}
+
+}  // namespace vibrofriction

@@ -1,0 +1,56 @@
+// Actuator plugin "vibrofriction.motion": drives its transmission along a prescribed motion
+//   s(t) = s0 + velocity * t + (velocity_amplitude / omega) sin(omega t + phase),  omega = 2 pi f
+// so that its velocity is  velocity + velocity_amplitude cos(omega t + phase).
+// Used for the vibrating table (velocity = 0) and for the far end of the drive spring
+// (velocity = v_d, no vibration). Each step it applies the force that puts the position on
+// s(t + dt) at the end of a semi-implicit Euler step, given every force known when it runs
+// (passive, bias, applied, built-in actuators and plugins declared before it). Forces computed
+// after it (e.g. the friction element) act as a disturbance that it corrects one step later,
+// so give the driven body a large apparent mass (armature) to keep that error negligible; the
+// achieved motion is reported by ordinary joint sensors and checked by the tests.
+// ctrl, when the actuator has one, scales the vibration amplitude (1 = as configured).
+#ifndef VIBROFRICTION_SUPPORT_MOTION_H_
+#define VIBROFRICTION_SUPPORT_MOTION_H_
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <mujoco/mujoco.h>
+
+namespace vibrofriction {
+
+struct MotionConfig {
+  double frequency = 0.0;           // f (Hz)
+  double velocity_amplitude = 0.0;  // v_a (m/s or rad/s)
+  double velocity = 0.0;            // constant drift velocity (m/s or rad/s)
+  double phase = 0.0;               // (rad)
+  bool use_ctrl = false;            // scale the amplitude by ctrl
+  int actuator = -1;
+  int output = -1;
+
+  static bool FromModel(const mjModel* m, int instance, MotionConfig* config);
+  // Prescribed displacement from the transmission's reference length at time t.
+  double Displacement(double t, double amplitude_scale) const;
+};
+
+class SupportMotion {
+ public:
+  static constexpr char kName[] = "vibrofriction.motion";
+  static std::unique_ptr<SupportMotion> Create(const mjModel* m, int instance);
+  static void RegisterPlugin();
+  void Compute(const mjModel* m, mjData* d, int instance);
+
+ private:
+  SupportMotion(MotionConfig config, std::string fingerprint);
+  bool Refresh(const mjModel* m, int instance);
+
+  MotionConfig config_;
+  std::string fingerprint_;
+  bool valid_ = true;
+  std::vector<mjtNum> scratch_;
+};
+
+}  // namespace vibrofriction
+
+#endif  // VIBROFRICTION_SUPPORT_MOTION_H_

@@ -1,0 +1,105 @@
+"""Console entry point ``vibrofriction`` (also ``python -m vibrofriction``).
+
+Each sub-command lives in ``vibrofriction/commands/<name>.py`` and provides ``HELP``,
+``add_arguments(parser)`` and ``run(args) -> int``. Bad input exits with code 2 and one message.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+from pathlib import Path
+from typing import Any, Sequence
+
+from .errors import InputError
+
+# Sub-command name -> module under vibrofriction.commands.
+COMMANDS = {
+    "simulate": "simulate",
+    "sweep": "sweep",
+    "reproduce": "reproduce",
+    "compare-builtin": "compare_builtin",
+    "convert": "convert",
+    "identify": "identify",
+}
+
+
+class UsageError(InputError):
+    """Bad input from the user: printed as one line, exit code 2."""
+
+
+def add_common_arguments(parser: argparse.ArgumentParser, *, law: bool = True) -> None:
+    """Options every command shares (interfaces.md)."""
+    parser.add_argument("--set", dest="overrides", action="append", default=[],
+                        metavar="NAME=VALUE",
+                        help="override a parameter (repeatable), e.g. --set mass_kg=0.5")
+    if law:
+        parser.add_argument("--law", default="dahl",
+                            help="friction law: coulomb, dahl, dupont or lugre (default dahl)")
+    parser.add_argument("--timestep", type=float, default=None, metavar="S",
+                        help="simulation timestep in seconds")
+    parser.add_argument("--json", dest="json_path", type=Path, default=None, metavar="FILE",
+                        help="write the machine-readable result to FILE")
+
+
+def parse_overrides(pairs: Sequence[str]) -> dict[str, str]:
+    out: dict[str, str] = {}
+    for pair in pairs:
+        if "=" not in pair:
+            raise UsageError(f"--set expects NAME=VALUE, got {pair!r}")
+        name, value = pair.split("=", 1)
+        out[name.strip()] = value.strip()
+    return out
+
+
+def write_json(path: Path | None, payload: Any) -> None:
+    """Write JSON atomically (temp file + rename) so a failure leaves nothing half-written."""
+    text = json.dumps(payload, indent=2, sort_keys=False)
+    if path is None:
+        print(text)
+        return
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(text + "\n")
+    tmp.replace(path)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="vibrofriction",
+        description="Dynamic friction (Coulomb, Dahl, Dupont, LuGre) with vibrating supports "
+                    "in MuJoCo.")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, module_name in COMMANDS.items():
+        try:
+            module = importlib.import_module(f".commands.{module_name}", __package__)
+        except ModuleNotFoundError as exc:  # a command not built yet in this checkout
+            if exc.name and exc.name.endswith(f"commands.{module_name}"):
+                continue
+            raise
+        p = sub.add_parser(name, help=module.HELP, description=module.HELP)
+        module.add_arguments(p)
+        p.set_defaults(_run=module.run)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "_run", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args._run(args) or 0)
+    except (InputError, FileNotFoundError) as exc:
+        print(f"vibrofriction {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

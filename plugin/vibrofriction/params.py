@@ -1,0 +1,204 @@
+"""Parameter dataclasses: the one vocabulary of the project (see README, "Parameters").
+
+Every field is in SI units with the unit in its name. The same names are used by the
+Python API, the CLI's ``--set NAME=VALUE``, JSON outputs and dataset sidecars.
+
+Values the paper (Gutowski & Leus 2012) does not give are chosen here, once:
+
+* ``friction_coefficient`` 0.2 -- dry steel on cast iron is 0.15-0.25 in handbooks; the paper's
+  results are reported as ratios F_d-v/F_d-s, which do not depend on it.
+* ``drive_stiffness_N_per_m`` 1e6 -- a ring dynamometer in series with a screw drive; it puts the
+  drive resonance (225 Hz with m = 0.5 kg) far below the 2.6-4 kHz excitation, so the drive
+  spring averages the vibration as in the paper's rig, and loads to breakaway in about 50 ms.
+* ``alpha`` 1 -- Dahl's usual value ("ductile" materials, Bliman 1992).
+* ``breakaway_ratio`` 0.7 -- Dupont et al. (2002) suggest z_ba a fraction of z_ss; 0.7 keeps a
+  clear elastic stick range.
+* ``bristle_damping_N_s_per_m`` 0 for Dupont; LuGre uses sqrt(k_t m)/5 (damping ratio 0.1 of
+  the contact resonance) -- see ``lugre_default_bristle_damping``.
+* ``static_ratio`` 1 and ``stribeck_velocity_m_per_s`` 1e-3 -- the paper's rig shows no Stribeck
+  peak; 1.0 disables it.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, fields, replace
+from typing import Any, Mapping
+
+from .errors import InputError
+
+LAWS = ("coulomb", "dahl", "dupont", "lugre")
+
+# Paper values (Gutowski & Leus 2012, section 4): p = 0.046 N/mm^2 on S = 1200 mm^2.
+PAPER_NORMAL_FORCE_N = 0.046 * 1200.0
+PAPER_CONTACT_STIFFNESS_N_PER_M = 80.0e6
+
+
+class ParameterError(InputError):
+    """A parameter is unknown, not a number, or out of its range; the message says which."""
+
+
+@dataclass(frozen=True)
+class RigParameters:
+    """The paper's rig: slider on a table vibrating along the sliding direction (eqs. 2-14)."""
+
+    mass_kg: float = 0.5
+    drive_stiffness_N_per_m: float = 1.0e6
+    drive_damping_N_s_per_m: float = 0.0
+    drive_velocity_m_per_s: float = 0.5e-3
+    vibration_frequency_Hz: float = 4000.0
+    vibration_velocity_amplitude_m_per_s: float = 0.0
+    normal_force_N: float = PAPER_NORMAL_FORCE_N
+
+    @property
+    def vibration_amplitude_m(self) -> float:
+        """u0 = v_a / (2 pi f)  (eq. 14)."""
+        if self.vibration_frequency_Hz <= 0:
+            return 0.0
+        return self.vibration_velocity_amplitude_m_per_s / (2 * math.pi * self.vibration_frequency_Hz)
+
+    @property
+    def kappa(self) -> float:
+        """kappa_v = v_a / v_d."""
+        return self.vibration_velocity_amplitude_m_per_s / self.drive_velocity_m_per_s
+
+    def validate(self) -> "RigParameters":
+        _require(self.mass_kg > 0, "mass_kg", self.mass_kg, "must be > 0")
+        _require(self.drive_stiffness_N_per_m > 0, "drive_stiffness_N_per_m",
+                 self.drive_stiffness_N_per_m, "must be > 0")
+        _require(self.drive_damping_N_s_per_m >= 0, "drive_damping_N_s_per_m",
+                 self.drive_damping_N_s_per_m, "must be >= 0")
+        _require(self.vibration_frequency_Hz >= 0, "vibration_frequency_Hz",
+                 self.vibration_frequency_Hz, "must be >= 0")
+        _require(self.vibration_velocity_amplitude_m_per_s >= 0,
+                 "vibration_velocity_amplitude_m_per_s",
+                 self.vibration_velocity_amplitude_m_per_s, "must be >= 0")
+        _require(self.normal_force_N >= 0, "normal_force_N", self.normal_force_N, "must be >= 0")
+        _require(self.drive_velocity_m_per_s != 0, "drive_velocity_m_per_s",
+                 self.drive_velocity_m_per_s, "must be non-zero")
+        return self
+
+
+@dataclass(frozen=True)
+class FrictionParameters:
+    """A friction law and its parameters; the effect fields are switched off at 0."""
+
+    law: str = "dahl"
+    friction_coefficient: float = 0.2
+    contact_stiffness_N_per_m: float = PAPER_CONTACT_STIFFNESS_N_PER_M
+    alpha: float = 1.0
+    breakaway_ratio: float = 0.7
+    bristle_damping_N_s_per_m: float = 0.0
+    viscous_N_s_per_m: float = 0.0
+    static_ratio: float = 1.0
+    stribeck_velocity_m_per_s: float = 1.0e-3
+    # Effects (identification vocabulary); each 0 = off.
+    asymmetry: float = 0.0  # level (1 + a) for v > 0, (1 - a) for v < 0
+    position_ripple: float = 0.0  # relative amplitude of friction periodic in position
+    position_ripple_wavelength_m: float = 1.0e-3
+    position_ripple_phase_rad: float = 0.0
+    normal_force_modulation: float = 0.0  # relative amplitude, at the vibration frequency
+    normal_force_modulation_frequency_Hz: float = 0.0
+    normal_force_modulation_phase_rad: float = 0.0
+    force_offset_N: float = 0.0
+    sensor_lag_s: float = 0.0  # first-order lag of the reported friction force
+
+    def validate(self) -> "FrictionParameters":
+        if self.law not in LAWS:
+            raise ParameterError(
+                f"unknown friction law {self.law!r}; use one of: {', '.join(LAWS)}")
+        _require(self.friction_coefficient >= 0, "friction_coefficient",
+                 self.friction_coefficient, "must be >= 0")
+        if self.law != "coulomb":
+            _require(self.contact_stiffness_N_per_m > 0, "contact_stiffness_N_per_m",
+                     self.contact_stiffness_N_per_m, "must be > 0")
+        _require(self.alpha >= 0, "alpha", self.alpha, "must be >= 0")
+        _require(0 < self.breakaway_ratio < 1, "breakaway_ratio", self.breakaway_ratio,
+                 "must lie in (0, 1)")
+        _require(self.bristle_damping_N_s_per_m >= 0, "bristle_damping_N_s_per_m",
+                 self.bristle_damping_N_s_per_m, "must be >= 0")
+        _require(self.viscous_N_s_per_m >= 0, "viscous_N_s_per_m", self.viscous_N_s_per_m,
+                 "must be >= 0")
+        _require(self.static_ratio >= 1, "static_ratio", self.static_ratio, "must be >= 1")
+        _require(self.stribeck_velocity_m_per_s > 0, "stribeck_velocity_m_per_s",
+                 self.stribeck_velocity_m_per_s, "must be > 0")
+        _require(-1 < self.asymmetry < 1, "asymmetry", self.asymmetry, "must lie in (-1, 1)")
+        _require(0 <= self.position_ripple < 1, "position_ripple", self.position_ripple,
+                 "must lie in [0, 1)")
+        _require(self.position_ripple_wavelength_m > 0, "position_ripple_wavelength_m",
+                 self.position_ripple_wavelength_m, "must be > 0")
+        _require(0 <= self.normal_force_modulation < 1, "normal_force_modulation",
+                 self.normal_force_modulation, "must lie in [0, 1)")
+        _require(self.normal_force_modulation_frequency_Hz >= 0,
+                 "normal_force_modulation_frequency_Hz",
+                 self.normal_force_modulation_frequency_Hz, "must be >= 0")
+        _require(self.sensor_lag_s >= 0, "sensor_lag_s", self.sensor_lag_s, "must be >= 0")
+        return self
+
+
+def lugre_default_bristle_damping(contact_stiffness_N_per_m: float, mass_kg: float) -> float:
+    """sigma1 at damping ratio 0.1 of the contact resonance: 0.2*sqrt(k_t m)."""
+    return 0.2 * math.sqrt(contact_stiffness_N_per_m * mass_kg)
+
+
+def _require(ok: bool, name: str, value: Any, rule: str) -> None:
+    if not ok or (isinstance(value, float) and math.isnan(value)):
+        raise ParameterError(f"parameter {name}={value!r} {rule}")
+
+
+def _all_field_names() -> dict[str, type]:
+    names: dict[str, type] = {}
+    for cls in (RigParameters, FrictionParameters):
+        for f in fields(cls):
+            names[f.name] = cls
+    return names
+
+
+def apply_overrides(rig: RigParameters, friction: FrictionParameters,
+                    overrides: Mapping[str, str | float]) -> tuple[RigParameters, FrictionParameters]:
+    """Apply ``--set NAME=VALUE`` pairs; unknown names and non-numbers raise ParameterError."""
+    owners = _all_field_names()
+    rig_changes: dict[str, Any] = {}
+    friction_changes: dict[str, Any] = {}
+    for name, raw in overrides.items():
+        if name not in owners:
+            close = [n for n in owners if name.split("_")[0] in n][:4]
+            hint = f" (did you mean {', '.join(close)}?)" if close else ""
+            raise ParameterError(f"unknown parameter {name!r}{hint}; see 'vibrofriction --help'")
+        if name == "law":
+            friction_changes[name] = str(raw)
+            continue
+        try:
+            value = float(raw)
+        except (TypeError, ValueError):
+            raise ParameterError(f"parameter {name}={raw!r} is not a number") from None
+        if not math.isfinite(value):
+            raise ParameterError(f"parameter {name}={raw!r} must be finite")
+        (rig_changes if owners[name] is RigParameters else friction_changes)[name] = value
+    rig = replace(rig, **rig_changes).validate()
+    friction = replace(friction, **friction_changes).validate()
+    return rig, friction
+
+
+def as_dict(*params: Any) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for p in params:
+        out.update(dataclasses.asdict(p))
+    return out
+
+
+def default_friction(law: str, rig: RigParameters | None = None) -> FrictionParameters:
+    """Defaults per law (LuGre gets its bristle damping from the rig's mass)."""
+    friction = FrictionParameters(law=law)
+    if law == "lugre":
+        mass = (rig or RigParameters()).mass_kg
+        friction = replace(friction, bristle_damping_N_s_per_m=lugre_default_bristle_damping(
+            friction.contact_stiffness_N_per_m, mass))
+    return friction.validate()
+
+
+__all__ = [
+    "LAWS", "ParameterError", "RigParameters", "FrictionParameters", "apply_overrides",
+    "as_dict", "default_friction", "lugre_default_bristle_damping", "PAPER_NORMAL_FORCE_N",
+    "PAPER_CONTACT_STIFFNESS_N_PER_M",
+]
