@@ -1,0 +1,271 @@
+"""The paper's rig in MuJoCo: build it from parameters, run it, summarize it.
+
+The MJCF files in ``mjcf_models/rig/`` are the source of truth for the rig's structure; this
+module only sets the numbers (from RigParameters and FrictionParameters) through MjSpec and
+runs the model natively with ``mujoco.rollout`` (sensors recorded every step).
+"""
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Sequence
+
+import mujoco
+import numpy as np
+from mujoco import rollout as mj_rollout
+
+from ._native import load
+from .params import FrictionParameters, ParameterError, RigParameters
+from .summary import RunSummary, summarize
+
+MJCF_DIR = Path(__file__).resolve().parent / "mjcf_models"
+RIG_DIR = MJCF_DIR / "rig"
+DEFAULT_TIMESTEP_S = 1e-5
+
+# FrictionParameters field -> MJCF config key of vibrofriction.friction (README table).
+MJCF_KEYS = {
+    "friction_coefficient": "mu",
+    "contact_stiffness_N_per_m": "stiffness",
+    "alpha": "alpha",
+    "breakaway_ratio": "breakaway",
+    "bristle_damping_N_s_per_m": "sigma1",
+    "viscous_N_s_per_m": "viscous",
+    "static_ratio": "static_ratio",
+    "stribeck_velocity_m_per_s": "stribeck_velocity",
+    "asymmetry": "asymmetry",
+    "position_ripple": "ripple",
+    "position_ripple_wavelength_m": "ripple_wavelength",
+    "position_ripple_phase_rad": "ripple_phase",
+    "normal_force_modulation": "normal_modulation",
+    "normal_force_modulation_frequency_Hz": "modulation_frequency",
+    "normal_force_modulation_phase_rad": "modulation_phase",
+    "force_offset_N": "force_offset",
+    "sensor_lag_s": "sensor_lag",
+}
+
+
+def scene_path(law: str) -> Path:
+    """Installed scene file of the rig with the given law."""
+    path = RIG_DIR / f"scene_{law}.xml"
+    if not path.is_file():
+        raise ParameterError(f"no rig scene for law {law!r} ({path}); use coulomb, dahl, "
+                             "dupont or lugre")
+    return path
+
+
+def friction_config(rig: RigParameters, friction: FrictionParameters) -> dict[str, str]:
+    """Config of the vibrofriction.friction instance for these parameters."""
+    config = {"law": friction.law, "normal": repr(float(rig.normal_force_N))}
+    for name, key in MJCF_KEYS.items():
+        config[key] = repr(float(getattr(friction, name)))
+    if friction.normal_force_modulation_frequency_Hz == 0:
+        # Normal-load modulation defaults to the support's vibration frequency.
+        config["modulation_frequency"] = repr(float(rig.vibration_frequency_Hz))
+    return config
+
+
+def _set_plugin_config(spec: mujoco.MjSpec, name: str, config: dict[str, str]) -> None:
+    for plugin in spec.plugins:
+        if plugin.name == name:
+            plugin.config = config
+            return
+    raise RuntimeError(f"rig MJCF has no plugin instance named {name!r}")
+
+
+def build_spec(rig: RigParameters, friction: FrictionParameters,
+               timestep_s: float = DEFAULT_TIMESTEP_S) -> mujoco.MjSpec:
+    """MjSpec of the rig scene for ``friction.law`` with every parameter applied."""
+    load()
+    rig.validate()
+    friction.validate()
+    if not (timestep_s > 0 and math.isfinite(timestep_s)):
+        raise ParameterError(f"timestep {timestep_s!r} must be a positive number of seconds")
+    spec = mujoco.MjSpec.from_file(str(scene_path(friction.law)))
+    spec.option.timestep = timestep_s
+    spec.body("slider").mass = rig.mass_kg
+    drive = spec.actuator("drive_spring")
+    drive.biasprm[:3] = [rig.drive_damping_N_s_per_m * rig.drive_velocity_m_per_s,
+                         -rig.drive_stiffness_N_per_m, -rig.drive_damping_N_s_per_m]
+    _set_plugin_config(spec, "table_shaker", {
+        "frequency": repr(float(rig.vibration_frequency_Hz)),
+        "velocity_amplitude": repr(float(rig.vibration_velocity_amplitude_m_per_s))})
+    _set_plugin_config(spec, "drive_end_motion", {
+        "velocity": repr(float(rig.drive_velocity_m_per_s))})
+    _set_plugin_config(spec, "friction", friction_config(rig, friction))
+    return spec
+
+
+def build_model(rig: RigParameters, friction: FrictionParameters,
+                timestep_s: float = DEFAULT_TIMESTEP_S) -> mujoco.MjModel:
+    return build_spec(rig, friction, timestep_s).compile()
+
+
+def default_times(rig: RigParameters, friction: FrictionParameters) -> tuple[float, float]:
+    """(duration_s, settle_time_s): loading to breakaway, transient, then an averaging window.
+
+    The spring loads to mu F_N in t_load = mu F_N / (k_d v_d); the transient is given two
+    loadings plus 30 ms, and the mean is taken over the following 40 ms of whole periods.
+    """
+    static_force_N = friction.friction_coefficient * rig.normal_force_N * friction.static_ratio
+    t_load_s = static_force_N / (rig.drive_stiffness_N_per_m * abs(rig.drive_velocity_m_per_s))
+    settle_time_s = 2.0 * t_load_s + 0.03
+    return settle_time_s + 0.04, settle_time_s
+
+
+@dataclass(frozen=True)
+class RigRun:
+    """Time series of one run (row i at t_i = i dt, before step i) and its parameters."""
+
+    rig: RigParameters
+    friction: FrictionParameters
+    timestep_s: float
+    settle_time_s: float
+    time_s: np.ndarray
+    slider_position_m: np.ndarray
+    slider_velocity_m_per_s: np.ndarray
+    slider_acceleration_m_per_s2: np.ndarray
+    support_position_m: np.ndarray
+    support_velocity_m_per_s: np.ndarray
+    relative_velocity_m_per_s: np.ndarray
+    deflection_m: np.ndarray
+    friction_force_N: np.ndarray
+    drive_force_N: np.ndarray
+    normal_force_N: np.ndarray
+
+    @property
+    def period_s(self) -> float:
+        f = self.rig.vibration_frequency_Hz
+        return 1.0 / f if f > 0 and self.rig.vibration_velocity_amplitude_m_per_s > 0 else 0.0
+
+    def summary(self, settle_time_s: float | None = None) -> RunSummary:
+        settle = self.settle_time_s if settle_time_s is None else settle_time_s
+        return summarize(self.time_s, self.drive_force_N, self.friction_force_N, self.period_s,
+                         settle)
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The run in the dataset format's column names (dataset-format.md)."""
+        return {
+            "time_s": self.time_s,
+            "position_m": self.slider_position_m,
+            "velocity_m_per_s": self.slider_velocity_m_per_s,
+            "acceleration_m_per_s2": self.slider_acceleration_m_per_s2,
+            "drive_force_N": self.drive_force_N,
+            "friction_force_N": self.friction_force_N,
+            "support_velocity_m_per_s": self.support_velocity_m_per_s,
+            "support_position_m": self.support_position_m,
+            "normal_force_N": self.normal_force_N,
+        }
+
+
+def _sensor_slices(model: mujoco.MjModel) -> dict[str, slice]:
+    out = {}
+    for i in range(model.nsensor):
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i)
+        adr, dim = model.sensor_adr[i], model.sensor_dim[i]
+        out[name] = slice(adr, adr + dim)
+    return out
+
+
+def runs_from_sensordata(model: mujoco.MjModel, rig: RigParameters,
+                         friction: FrictionParameters, sensordata: np.ndarray,
+                         settle_time_s: float) -> RigRun:
+    """Turn rollout sensordata (nstep x nsensordata) into a RigRun."""
+    s = _sensor_slices(model)
+    dt = model.opt.timestep
+    n = sensordata.shape[0]
+    friction_state = sensordata[:, s["friction_state"]]
+    return RigRun(
+        rig=rig, friction=friction, timestep_s=dt, settle_time_s=settle_time_s,
+        time_s=np.arange(n) * dt,
+        slider_position_m=sensordata[:, s["slider_position"]][:, 0],
+        slider_velocity_m_per_s=sensordata[:, s["slider_velocity"]][:, 0],
+        slider_acceleration_m_per_s2=sensordata[:, s["slider_acceleration"]][:, 0],
+        support_position_m=sensordata[:, s["table_position"]][:, 0],
+        support_velocity_m_per_s=sensordata[:, s["table_velocity"]][:, 0],
+        relative_velocity_m_per_s=friction_state[:, 2],
+        deflection_m=friction_state[:, 1],
+        # The lagged channel equals the force itself unless sensor_lag_s > 0.
+        friction_force_N=friction_state[:, 4],
+        drive_force_N=sensordata[:, s["drive_force"]][:, 0],
+        normal_force_N=friction_state[:, 3],
+    )
+
+
+def _initial_state(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+    mujoco.mj_resetData(model, data)
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state = np.empty(mujoco.mj_stateSize(model, spec))
+    mujoco.mj_getState(model, data, state, spec)
+    return state
+
+
+def simulate(rig: RigParameters, friction: FrictionParameters, *,
+             duration_s: float | None = None, timestep_s: float = DEFAULT_TIMESTEP_S,
+             settle_time_s: float | None = None) -> RigRun:
+    """One run of the rig from rest (spring unloaded, z = 0)."""
+    return simulate_many([(rig, friction)], duration_s=duration_s, timestep_s=timestep_s,
+                         settle_time_s=settle_time_s)[0]
+
+
+def simulate_many(cases: Sequence[tuple[RigParameters, FrictionParameters]], *,
+                  duration_s: float | None = None, timestep_s: float = DEFAULT_TIMESTEP_S,
+                  settle_time_s: float | None = None, nthread: int | None = None,
+                  progress: Callable[[int, int], None] | None = None) -> list[RigRun]:
+    """Run several rigs in parallel on rollout threads (one model per case, same structure).
+
+    Cases are run in groups so that ``progress(done, total)`` can report; the duration is the
+    longest default over the cases unless given.
+    """
+    if not cases:
+        return []
+    times = [default_times(r, f) for r, f in cases]
+    duration = duration_s if duration_s is not None else max(t[0] for t in times)
+    settle = settle_time_s if settle_time_s is not None else max(t[1] for t in times)
+    if not (duration > 0 and math.isfinite(duration)):
+        raise ParameterError(f"duration {duration!r} must be a positive number of seconds")
+    nstep = int(round(duration / timestep_s))
+    models = [build_model(r, f, timestep_s) for r, f in cases]
+    nthread = nthread if nthread is not None else min(len(cases), _cpu_count())
+    group = max(1, nthread)
+    runs: list[RigRun] = []
+    with mj_rollout.Rollout(nthread=nthread if len(cases) > 1 else 0) as pool:
+        for start in range(0, len(cases), group):
+            chunk_models = models[start:start + group]
+            datas = [mujoco.MjData(chunk_models[0]) for _ in range(max(1, min(group, len(chunk_models))))]
+            states = np.stack([_initial_state(mm, datas[0]) for mm in chunk_models])
+            _, sensordata = pool.rollout(chunk_models, datas, states, nstep=nstep)
+            for k, mm in enumerate(chunk_models):
+                r, f = cases[start + k]
+                runs.append(runs_from_sensordata(mm, r, f, sensordata[k], settle))
+            if progress:
+                progress(len(runs), len(cases))
+    return runs
+
+
+def static_drive_force(rig: RigParameters, friction: FrictionParameters, *,
+                       timestep_s: float = DEFAULT_TIMESTEP_S) -> float:
+    """F_d-s: mean drive force of the same rig without vibration."""
+    from dataclasses import replace
+    still = replace(rig, vibration_velocity_amplitude_m_per_s=0.0)
+    return simulate(still, friction, timestep_s=timestep_s).summary().mean_drive_force_N
+
+
+def _cpu_count() -> int:
+    import os
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def progress_printer(label: str) -> Callable[[int, int], None]:
+    """A one-line progress bar on stderr."""
+    def report(done: int, total: int) -> None:
+        width = 30
+        filled = int(width * done / total)
+        end = "\n" if done == total else ""
+        print(f"\r{label} [{'#' * filled}{'.' * (width - filled)}] {done}/{total}",
+              end=end, file=sys.stderr, flush=True)
+    return report
