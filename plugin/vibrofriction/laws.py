@@ -1,0 +1,109 @@
+"""The friction laws driven along a given relative-velocity history, from Python.
+
+This calls the plugin's own C++ law code (plugin/cpp/friction_law.cc) through its C API, so
+identification, plots and the MuJoCo plugin share one implementation. The force at sample i
+uses the state z_i; z_{i+1} advances over [t_i, t_{i+1}] with the input at t_{i+1} -- exactly
+the plugin's step order.
+"""
+from __future__ import annotations
+
+import ctypes
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._native import _LawParameters, load
+from .params import LAWS, FrictionParameters, ParameterError
+
+
+@dataclass(frozen=True)
+class LawRun:
+    friction_force_N: np.ndarray
+    deflection_m: np.ndarray
+
+
+def _c_parameters(friction: FrictionParameters, normal_force_N: float) -> _LawParameters:
+    return _LawParameters(
+        law=LAWS.index(friction.law),
+        friction_coefficient=friction.friction_coefficient,
+        normal_force=normal_force_N,
+        contact_stiffness=friction.contact_stiffness_N_per_m,
+        alpha=friction.alpha,
+        breakaway_ratio=friction.breakaway_ratio,
+        bristle_damping=friction.bristle_damping_N_s_per_m,
+        viscous=friction.viscous_N_s_per_m,
+        static_ratio=friction.static_ratio,
+        stribeck_velocity=friction.stribeck_velocity_m_per_s,
+        asymmetry=friction.asymmetry,
+        ripple=friction.position_ripple,
+        ripple_wavelength=friction.position_ripple_wavelength_m,
+        ripple_phase=friction.position_ripple_phase_rad,
+        normal_modulation=friction.normal_force_modulation,
+        normal_modulation_frequency=friction.normal_force_modulation_frequency_Hz,
+        normal_modulation_phase=friction.normal_force_modulation_phase_rad,
+        force_offset=friction.force_offset_N,
+    )
+
+
+def _as_c_array(values, n: int, name: str) -> np.ndarray:
+    array = np.ascontiguousarray(values, dtype=np.float64)
+    if array.shape != (n,):
+        raise ParameterError(f"{name} has shape {array.shape}, expected ({n},)")
+    if not np.all(np.isfinite(array)):
+        raise ParameterError(f"{name} contains NaN or inf at index {int(np.argmin(np.isfinite(array)))}")
+    return array
+
+
+def run_law(friction: FrictionParameters, time_s, relative_velocity_m_per_s, *,
+            normal_force_N=55.2, position_m=None, initial_deflection_m: float = 0.0) -> LawRun:
+    """Friction force and deflection along a prescribed history (kinematic driving).
+
+    ``normal_force_N`` is a constant or an array over the samples; ``position_m`` (relative
+    position on the support) feeds the position-ripple effect. Coulomb has no stick solve here
+    (the velocity is given): F = g(v) sgn(v) + sigma2 v, and 0 at v = 0 exactly.
+    """
+    friction.validate()
+    lib = load()
+    t = np.ascontiguousarray(time_s, dtype=np.float64)
+    n = t.shape[0]
+    t = _as_c_array(t, n, "time_s")
+    if n > 1 and not np.all(np.diff(t) > 0):
+        raise ParameterError("time_s must be strictly increasing")
+    v = _as_c_array(relative_velocity_m_per_s, n, "relative_velocity_m_per_s")
+    normal_array = None
+    constant_normal = 0.0
+    if np.ndim(normal_force_N) == 0:
+        constant_normal = float(normal_force_N)
+    else:
+        normal_array = _as_c_array(normal_force_N, n, "normal_force_N")
+    position = None if position_m is None else _as_c_array(position_m, n, "position_m")
+    force = np.empty(n)
+    deflection = np.empty(n)
+    dp = ctypes.POINTER(ctypes.c_double)
+
+    def ptr(a):
+        return None if a is None else a.ctypes.data_as(dp)
+
+    params = _c_parameters(friction, constant_normal)
+    status = lib.vf_run_law(ctypes.byref(params), n, ptr(t), ptr(v), ptr(position),
+                            ptr(normal_array), float(initial_deflection_m), ptr(force),
+                            ptr(deflection))
+    if status != 0:
+        raise ParameterError("the friction-law C API rejected its arguments")
+    return LawRun(friction_force_N=force, deflection_m=deflection)
+
+
+def kinematic_mean_ratio(friction: FrictionParameters, *, drive_velocity_m_per_s: float,
+                         vibration_velocity_amplitude_m_per_s: float,
+                         vibration_frequency_Hz: float, normal_force_N: float,
+                         periods: int = 200, samples_per_period: int = 2000) -> float:
+    """F_mean / (mu F_N) for a body moving exactly at v_d over a vibrating support (heavy-body
+    limit): v_r = v_d - v_a cos(omega t). The last half of the periods is averaged."""
+    omega = 2 * np.pi * vibration_frequency_Hz
+    n = periods * samples_per_period
+    t = np.arange(n + 1) * (1.0 / vibration_frequency_Hz) / samples_per_period
+    v = drive_velocity_m_per_s - vibration_velocity_amplitude_m_per_s * np.cos(omega * t)
+    run = run_law(friction, t, v, normal_force_N=normal_force_N)
+    half = n // 2
+    mean = np.trapezoid(run.friction_force_N[half:], t[half:]) / (t[-1] - t[half])
+    return float(mean / (friction.friction_coefficient * normal_force_N))
