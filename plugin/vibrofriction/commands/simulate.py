@@ -1,0 +1,173 @@
+"""``vibrofriction simulate``: one run of the paper's rig.
+
+The time series goes to ``--csv FILE`` in the dataset format (``NAME.csv`` plus the sidecar
+``NAME.json``, see the README's dataset section); the summary (parameters, mean drive force over
+whole vibration periods after the transient, friction extrema, sign change, and with
+``--static`` the static drive force F_d-s and the ratio F_d-v/F_d-s) goes to ``--json FILE``
+or, without it, to stdout.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+from dataclasses import asdict, replace
+from pathlib import Path
+from typing import Any
+
+from .. import rig as rig_module
+from ..cli import UsageError, add_common_arguments, parse_overrides, write_json
+from ..datasets import Dataset, DatasetMetadata, sidecar_path, write_dataset
+from ..params import FrictionParameters, RigParameters, apply_overrides, as_dict, default_friction
+
+HELP = ("run the vibrating-support rig once: time series to CSV (dataset format), summary "
+        "(mean drive force, friction extrema, sign change) to JSON")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    add_common_arguments(parser)
+    add_run_arguments(parser)
+    parser.add_argument("--csv", dest="csv_path", type=Path, default=None, metavar="FILE",
+                        help="write the time series to FILE (NAME.csv or NAME.csv.gz) and its "
+                             "sidecar NAME.json, in the dataset format")
+    parser.add_argument("--static", action="store_true",
+                        help="also run the rig without vibration and report the static drive "
+                             "force F_d-s and the ratio F_d-v/F_d-s")
+
+
+def add_run_arguments(parser: argparse.ArgumentParser) -> None:
+    """--duration and --settle, shared with ``sweep``."""
+    parser.add_argument("--duration", type=str, default=None, metavar="S",
+                        help="simulated time in seconds (default: two loadings to breakaway "
+                             "+ 30 ms transient + 40 ms averaging window)")
+    parser.add_argument("--settle", type=str, default=None, metavar="S",
+                        help="start of the averaging window in seconds (default: two loadings "
+                             "to breakaway + 30 ms, or half of a shorter --duration)")
+
+
+def positive_seconds(text: str | float | None, option: str) -> float | None:
+    """Parse a positive, finite number of seconds; None stays None."""
+    if text is None:
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        raise UsageError(f"{option} {text!r} is not a number of seconds") from None
+    if not (math.isfinite(value) and value > 0):
+        raise UsageError(f"{option} {text!r} must be a finite number of seconds > 0")
+    return value
+
+
+def parameters_from_args(args: argparse.Namespace) -> tuple[RigParameters, FrictionParameters]:
+    """Rig and friction parameters: the law's defaults, then every ``--set``."""
+    overrides = parse_overrides(args.overrides)
+    law = str(overrides.pop("law", args.law))
+    rig = RigParameters()
+    rig, _ = apply_overrides(rig, default_friction("dahl"), {
+        k: v for k, v in overrides.items() if k in _rig_names()})
+    friction = default_friction(law, rig)
+    return apply_overrides(rig, friction, overrides)
+
+
+def run_settings(args: argparse.Namespace, cases: list[tuple[RigParameters, FrictionParameters]]
+                 ) -> tuple[float, float, float]:
+    """(timestep_s, duration_s, settle_time_s) from the options and the cases' defaults."""
+    timestep = positive_seconds(args.timestep, "--timestep")
+    timestep = rig_module.DEFAULT_TIMESTEP_S if timestep is None else timestep
+    defaults = [rig_module.default_times(r, f) for r, f in cases]
+    duration = positive_seconds(args.duration, "--duration")
+    settle = positive_seconds(args.settle, "--settle")
+    duration = max(d for d, _ in defaults) if duration is None else duration
+    if settle is None:
+        settle = max(s for _, s in defaults)
+        if settle >= duration:  # a short --duration: average over its second half
+            settle = 0.5 * duration
+    if settle >= duration:
+        raise UsageError(f"--settle {settle} s must be before the end of the run "
+                         f"(--duration {duration} s)")
+    periods = [1.0 / r.vibration_frequency_Hz for r, _ in cases
+               if r.vibration_frequency_Hz > 0 and r.vibration_velocity_amplitude_m_per_s > 0]
+    if periods and duration - settle < max(periods) - 1e-12:
+        raise UsageError(f"the averaging window {duration - settle} s (--duration minus "
+                         f"--settle) is shorter than one vibration period {max(periods)} s")
+    if duration / timestep > 5e8:
+        raise UsageError(f"--duration {duration} s at --timestep {timestep} s is more than "
+                         "5e8 steps; use a larger timestep or a shorter run")
+    if timestep > duration:
+        raise UsageError(f"--timestep {timestep} s is longer than --duration {duration} s")
+    return timestep, duration, settle
+
+
+def summary_fields(run: rig_module.RigRun, settle_time_s: float,
+                   static_drive_force_N: float | None) -> dict[str, Any]:
+    """The summary of one run under the names of the sweep's points (interfaces.md)."""
+    s = run.summary(settle_time_s)
+    ratio = None
+    if static_drive_force_N is not None and static_drive_force_N != 0:
+        ratio = s.mean_drive_force_N / static_drive_force_N
+    return {
+        "vibration_velocity_amplitude_m_per_s": run.rig.vibration_velocity_amplitude_m_per_s,
+        "kappa": run.rig.kappa,
+        "mean_drive_force_N": s.mean_drive_force_N,
+        "ratio": ratio,
+        "friction_min_N": s.friction_min_N,
+        "friction_max_N": s.friction_max_N,
+        "sign_change": s.sign_change,
+        "mean_friction_force_N": s.mean_friction_force_N,
+        "window_start_s": s.window_start_s,
+        "window_end_s": s.window_end_s,
+        "periods_averaged": s.periods_averaged,
+    }
+
+
+def dataset_of(run: rig_module.RigRun, name: str) -> Dataset:
+    """The run as a dataset: RigRun.columns() plus the rig's sidecar keys."""
+    rig = run.rig
+    metadata = DatasetMetadata(
+        description=(f"vibrofriction simulate: law {run.friction.law}, v_a = "
+                     f"{rig.vibration_velocity_amplitude_m_per_s!r} m/s, dt = "
+                     f"{run.timestep_s!r} s"),
+        mass_kg=rig.mass_kg,
+        drive_stiffness_N_per_m=rig.drive_stiffness_N_per_m,
+        drive_velocity_m_per_s=rig.drive_velocity_m_per_s,
+        vibration_frequency_Hz=rig.vibration_frequency_Hz if rig.vibration_frequency_Hz > 0
+        else None,
+        normal_force_N=rig.normal_force_N,
+        sample_rate_Hz=float(f"{1.0 / run.timestep_s:.12g}"),
+        source="vibrofriction simulate (MuJoCo rig, mjcf_models/rig)",
+    )
+    return Dataset(name=name, columns=run.columns(), metadata=metadata)
+
+
+def run(args: argparse.Namespace) -> int:
+    rig, friction = parameters_from_args(args)
+    if args.csv_path is not None:
+        sidecar = sidecar_path(args.csv_path)  # checks the name before simulating
+        if args.json_path is not None and Path(args.json_path).resolve() == sidecar.resolve():
+            raise UsageError(f"--json {args.json_path} would overwrite the CSV's sidecar; "
+                             "choose another name")
+    cases = [(rig, friction)]
+    if args.static:
+        cases.append((replace(rig, vibration_velocity_amplitude_m_per_s=0.0), friction))
+    timestep, duration, settle = run_settings(args, cases)
+    runs = rig_module.simulate_many(cases, duration_s=duration, timestep_s=timestep,
+                                    settle_time_s=settle)
+    static = runs[1].summary(settle).mean_drive_force_N if args.static else None
+    payload: dict[str, Any] = {
+        "law": friction.law,
+        "parameters": as_dict(rig, friction),
+        "timestep_s": timestep,
+        "duration_s": duration,
+        "settle_time_s": settle,
+        "static_drive_force_N": static,
+        **summary_fields(runs[0], settle, static),
+        "csv": None if args.csv_path is None else str(args.csv_path),
+    }
+    if args.csv_path is not None:
+        name = sidecar_path(args.csv_path).stem
+        write_dataset(dataset_of(runs[0], name), args.csv_path)
+    write_json(args.json_path, payload)
+    return 0
+
+
+def _rig_names() -> set[str]:
+    return set(asdict(RigParameters()))

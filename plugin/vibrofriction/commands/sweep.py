@@ -1,0 +1,62 @@
+"""``vibrofriction sweep --va V1,V2,...``: the master curve F_d-v/F_d-s over v_a.
+
+Every amplitude and the static run (v_a = 0, giving F_d-s) are simulated in parallel on
+MuJoCo rollout threads (one model per case) with a progress bar on stderr. The JSON is
+interfaces.md's: ``{"law", "parameters", "static_drive_force_N", "points": [...]}``.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+from dataclasses import replace
+
+from ..cli import UsageError, add_common_arguments, write_json
+from ..sweep import sweep
+from .simulate import add_run_arguments, parameters_from_args, run_settings
+
+HELP = ("master curve: mean drive force over the vibration velocity amplitudes --va "
+        "V1,V2,... (m/s), relative to the static drive force; runs in parallel")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--va", required=True, metavar="V1,V2,...",
+                        help="vibration velocity amplitudes v_a in m/s, comma-separated, each "
+                             ">= 0, e.g. --va 0.75e-3,3e-3,20e-3")
+    add_common_arguments(parser)
+    add_run_arguments(parser)
+    parser.add_argument("--threads", type=int, default=None, metavar="N",
+                        help="rollout threads (default: one per CPU core, at most one per run)")
+
+
+def parse_amplitudes(text: str) -> list[float]:
+    """'0.75e-3,3e-3' -> [0.00075, 0.003]; each finite and >= 0."""
+    values = []
+    for item in text.split(","):
+        item = item.strip()
+        if not item:
+            raise UsageError(f"--va {text!r} has an empty entry; write V1,V2,... in m/s")
+        try:
+            value = float(item)
+        except ValueError:
+            raise UsageError(f"--va entry {item!r} is not a number (m/s)") from None
+        if not math.isfinite(value) or value < 0:
+            raise UsageError(f"--va entry {item!r} must be a finite velocity amplitude >= 0 "
+                             "(m/s)")
+        values.append(value)
+    return values
+
+
+def run(args: argparse.Namespace) -> int:
+    amplitudes = parse_amplitudes(args.va)
+    rig, friction = parameters_from_args(args)
+    if args.threads is not None and args.threads < 1:
+        raise UsageError(f"--threads {args.threads} must be >= 1")
+    cases = [(replace(rig, vibration_velocity_amplitude_m_per_s=va), friction)
+             for va in [0.0, *amplitudes]]
+    for case_rig, _ in cases:
+        case_rig.validate()
+    timestep, duration, settle = run_settings(args, cases)
+    result = sweep(rig, friction, amplitudes, timestep_s=timestep, duration_s=duration,
+                   settle_time_s=settle, nthread=args.threads)
+    write_json(args.json_path, result)
+    return 0
