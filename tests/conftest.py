@@ -1,0 +1,87 @@
+"""Shared fixtures: the paper's rig parameters and helpers to run MuJoCo models of the rig.
+
+Tests import the installed package (run scripts/dev_install.sh after changing plugin/).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+import pytest
+from mujoco import rollout as mj_rollout
+
+import vibrofriction
+from vibrofriction.params import PAPER_NORMAL_FORCE_N, RigParameters
+
+# Friction bound of the paper rig: mu = 0.2 (params.py) times F_N = 55.2 N (paper, section 4).
+PAPER_FRICTION_BOUND_N = 0.2 * PAPER_NORMAL_FORCE_N
+FULL = mujoco.mjtState.mjSTATE_FULLPHYSICS
+
+
+@dataclass(frozen=True)
+class Rollout:
+    """States after each step and sensors before each step (row i at t_i = i dt)."""
+
+    model: mujoco.MjModel
+    initial_state: np.ndarray
+    state: np.ndarray  # (nstep, nstate): after step i
+    sensordata: np.ndarray  # (nstep, nsensordata): computed in step i, i.e. at t_i
+
+    def sensor(self, name: str) -> np.ndarray:
+        i = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SENSOR, name)
+        if i < 0:
+            raise KeyError(name)
+        adr, dim = self.model.sensor_adr[i], self.model.sensor_dim[i]
+        out = self.sensordata[:, adr:adr + dim]
+        return out[:, 0] if dim == 1 else out
+
+    @property
+    def states_before(self) -> np.ndarray:
+        """State at t_i for each row (the initial state, then the states after steps 0..n-2)."""
+        return np.vstack([self.initial_state[None], self.state[:-1]])
+
+    @property
+    def time_s(self) -> np.ndarray:
+        return np.arange(self.sensordata.shape[0]) * self.model.opt.timestep
+
+
+def initial_state(model: mujoco.MjModel, data: mujoco.MjData | None = None) -> np.ndarray:
+    data = data if data is not None else mujoco.MjData(model)
+    mujoco.mj_resetData(model, data)
+    state = np.empty(mujoco.mj_stateSize(model, FULL))
+    mujoco.mj_getState(model, data, state, FULL)
+    return state
+
+
+def run_rollout(model: mujoco.MjModel, nstep: int, state0: np.ndarray | None = None) -> Rollout:
+    data = mujoco.MjData(model)
+    state0 = initial_state(model, data) if state0 is None else state0
+    state, sensordata = mj_rollout.rollout(model, data, state0[None], nstep=nstep)
+    return Rollout(model=model, initial_state=state0, state=state[0], sensordata=sensordata[0])
+
+
+def rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.square(x))))
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _plugin_loaded() -> None:
+    vibrofriction.load()
+
+
+@pytest.fixture(autouse=True)
+def _no_callback_left_behind():
+    """A test that installs mjcb_act_dyn must remove it (it is global to the process)."""
+    yield
+    assert mujoco.get_mjcb_act_dyn() is None, "mjcb_act_dyn left installed"
+
+
+@pytest.fixture
+def paper_rig():
+    """RigParameters at the paper's values with the given v_a (m/s)."""
+    def make(vibration_velocity_amplitude_m_per_s: float = 0.0, **changes) -> RigParameters:
+        return RigParameters(
+            vibration_velocity_amplitude_m_per_s=vibration_velocity_amplitude_m_per_s,
+            **changes).validate()
+    return make
