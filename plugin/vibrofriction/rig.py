@@ -230,10 +230,12 @@ def simulate_many(cases: Sequence[tuple[RigParameters, FrictionParameters]], *,
     nthread = nthread if nthread is not None else min(len(cases), _cpu_count())
     group = max(1, nthread)
     runs: list[RigRun] = []
-    with mj_rollout.Rollout(nthread=nthread if len(cases) > 1 else 0) as pool:
+    pool_threads = nthread if len(cases) > 1 else 0
+    with mj_rollout.Rollout(nthread=pool_threads) as pool:
         for start in range(0, len(cases), group):
             chunk_models = models[start:start + group]
-            datas = [mujoco.MjData(chunk_models[0]) for _ in range(max(1, min(group, len(chunk_models))))]
+            # Rollout wants exactly one MjData per thread, also for a short last chunk.
+            datas = [mujoco.MjData(chunk_models[0]) for _ in range(max(1, pool_threads))]
             states = np.stack([_initial_state(mm, datas[0]) for mm in chunk_models])
             _, sensordata = pool.rollout(chunk_models, datas, states, nstep=nstep)
             for k, mm in enumerate(chunk_models):
