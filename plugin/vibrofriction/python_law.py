@@ -102,8 +102,13 @@ def bare_rig_spec(rig: RigParameters, *, timestep_s: float = rig_module.DEFAULT_
 
 
 def python_law_spec(rig: RigParameters, friction: FrictionParameters, *,
-                    timestep_s: float = rig_module.DEFAULT_TIMESTEP_S) -> mujoco.MjSpec:
-    """The rig with a ``general`` actuator (dyntype user, actdim 1, force -k_t z - sigma2 v_r)."""
+                    timestep_s: float = rig_module.DEFAULT_TIMESTEP_S,
+                    act_early: bool = True) -> mujoco.MjSpec:
+    """The rig with a ``general`` actuator (dyntype user, actdim 1, force -k_t z - sigma2 v_r).
+
+    ``act_early=False`` gives MuJoCo's default order (force from z_n, then z_{n+1} from the old
+    velocity), which pumps energy into a stuck contact: kept only to show that trap.
+    """
     friction.validate()
     if friction.contact_stiffness_N_per_m <= 0:
         raise ParameterError("the Python-law path needs contact_stiffness_N_per_m > 0 "
@@ -119,7 +124,7 @@ def python_law_spec(rig: RigParameters, friction: FrictionParameters, *,
     # actearly: the force of step n uses z_{n+1} = z_n + dt ż(z_n, v_n), so (z, v) advance as a
     # symplectic-Euler pair; with actearly="false" (z_n in the force) the stuck contact
     # oscillation gains energy and the mean force is 1 % low even at dt = 1e-6 s.
-    actuator.actearly = True
+    actuator.actearly = act_early
     actuator.gaintype = mujoco.mjtGain.mjGAIN_FIXED
     actuator.gainprm[0] = -friction.contact_stiffness_N_per_m
     actuator.biastype = mujoco.mjtBias.mjBIAS_AFFINE
@@ -151,15 +156,15 @@ def act_dyn_callback(law: LawFunction, params: ContactParameters) -> Iterator[No
 
 def simulate_python_law(rig: RigParameters, friction: FrictionParameters,
                         law: LawFunction = dahl_zdot, *, duration_s: float | None = None,
-                        timestep_s: float = 1e-6, settle_time_s: float | None = None
-                        ) -> rig_module.RigRun:
+                        timestep_s: float = 1e-6, settle_time_s: float | None = None,
+                        act_early: bool = True) -> rig_module.RigRun:
     """One run of the rig from rest with the friction law ``law`` in Python (see module doc)."""
     default_duration, default_settle = rig_module.default_times(rig, friction)
     duration = default_duration if duration_s is None else duration_s
     settle = default_settle if settle_time_s is None else settle_time_s
     if not (duration > 0 and math.isfinite(duration)):
         raise ParameterError(f"duration {duration!r} must be a positive number of seconds")
-    model = python_law_spec(rig, friction, timestep_s=timestep_s).compile()
+    model = python_law_spec(rig, friction, timestep_s=timestep_s, act_early=act_early).compile()
     data = mujoco.MjData(model)
     full = mujoco.mjtState.mjSTATE_FULLPHYSICS
     initial = np.empty(mujoco.mj_stateSize(model, full))
