@@ -191,6 +191,252 @@ double KinematicCoulombForce(const LawParameters& p, const LawInput& in) {
   return Sign(in.velocity) * StribeckLevel(p, in) + p.viscous * in.velocity + p.force_offset;
 }
 
+// ---- Planar laws --------------------------------------------------------------------------------
+
+namespace {
+
+// Unit direction of v and its speed; returns false (and leaves dir untouched) when v = 0.
+bool Direction(const double v[2], double dir[2], double* speed) {
+  *speed = std::hypot(v[0], v[1]);
+  if (!(*speed > 0)) return false;
+  dir[0] = v[0] / *speed;
+  dir[1] = v[1] / *speed;
+  return true;
+}
+
+LawInput AtSpeed(const LawInput& in, double speed) {
+  LawInput at = in;
+  at.velocity = speed;
+  return at;
+}
+
+// Dupont plastic onset in the plane: a > 0 needs z.v > 0 and |z| > z_ba. During elastic motion
+// z = z0 + v t the perpendicular part q stays fixed and the projection p grows at |v|; the onset
+// projection is sqrt(z_ba^2 - q^2) (or 0+ when q >= z_ba).
+void AdvancePlanarDupont(const LawParameters& p, const LawInput& at, const double dir[2],
+                         double speed, double z[2], double dt) {
+  const double z_max = StribeckLevel(p, at) / p.contact_stiffness;
+  const double z_ba = p.breakaway_ratio * CoulombLevel(p, at, 1.0) / p.contact_stiffness;
+  if (z_max <= 0) {
+    z[0] = z[1] = 0.0;
+    return;
+  }
+  double time_left = dt;
+  const double proj = z[0] * dir[0] + z[1] * dir[1];
+  const double perp[2] = {z[0] - proj * dir[0], z[1] - proj * dir[1]};
+  const double q = std::hypot(perp[0], perp[1]);
+  const double onset = q < z_ba ? std::sqrt(z_ba * z_ba - q * q) : 0.0;
+  if (proj < onset || (onset == 0.0 && proj <= 0.0)) {
+    const double t_elastic = (onset - proj) / speed;
+    if (t_elastic >= time_left) {
+      z[0] += dir[0] * speed * time_left;
+      z[1] += dir[1] * speed * time_left;
+      return;
+    }
+    z[0] = perp[0] + onset * dir[0];
+    z[1] = perp[1] + onset * dir[1];
+    time_left -= t_elastic;
+  }
+  const double r = std::hypot(z[0], z[1]);
+  if (r >= z_max) {
+    // a = 1: linear, exact exponential relaxation towards z_max dir.
+    const double decay = std::exp(-speed * time_left / z_max);
+    z[0] = z_max * dir[0] + (z[0] - z_max * dir[0]) * decay;
+    z[1] = z_max * dir[1] + (z[1] - z_max * dir[1]) * decay;
+    return;
+  }
+  // Backward Euler: z1 = (z0 + h dir) / (1 + h a(|z1|) / z_max) keeps the direction of
+  // y = z0 + h dir, and |z1| solves the 1D Dupont step equation with zeta0 = |y| - h.
+  const double travel = speed * time_left;
+  const int substeps =
+      std::clamp(static_cast<int>(std::ceil(20.0 * travel / (z_max - z_ba))), 1, 64);
+  const double h = travel / substeps;
+  for (int i = 0; i < substeps; ++i) {
+    const double y[2] = {z[0] + h * dir[0], z[1] + h * dir[1]};
+    const double y_norm = std::hypot(y[0], y[1]);
+    if (!(y_norm > 0)) {
+      z[0] = z[1] = 0.0;
+      continue;
+    }
+    const double radius = DupontPlasticStep(y_norm - h, h, z_ba, z_max);
+    z[0] = y[0] * (radius / y_norm);
+    z[1] = y[1] * (radius / y_norm);
+  }
+}
+
+}  // namespace
+
+void PlanarDeflectionRate(const LawParameters& p, const LawInput& in, const double v[2],
+                          const double z[2], double rate[2]) {
+  rate[0] = rate[1] = 0.0;
+  double dir[2], speed;
+  if (!Direction(v, dir, &speed)) return;
+  const LawInput at = AtSpeed(in, speed);
+  switch (p.law) {
+    case Law::kDahl: {
+      const double z_c = CoulombLevel(p, at, 1.0) / p.contact_stiffness;
+      if (z_c <= 0) return;
+      const double e[2] = {dir[0] - z[0] / z_c, dir[1] - z[1] / z_c};
+      const double e_norm = std::hypot(e[0], e[1]);
+      if (!(e_norm > 0)) return;
+      const double gain = speed * std::pow(e_norm, p.alpha - 1.0);
+      rate[0] = gain * e[0];
+      rate[1] = gain * e[1];
+      return;
+    }
+    case Law::kLuGre: {
+      const double z_g = StribeckLevel(p, at) / p.contact_stiffness;
+      if (z_g <= 0) return;
+      rate[0] = v[0] - speed * z[0] / z_g;
+      rate[1] = v[1] - speed * z[1] / z_g;
+      return;
+    }
+    case Law::kDupont: {
+      const double z_max = StribeckLevel(p, at) / p.contact_stiffness;
+      if (z_max <= 0) return;
+      const double z_ba = p.breakaway_ratio * CoulombLevel(p, at, 1.0) / p.contact_stiffness;
+      const bool loading = z[0] * v[0] + z[1] * v[1] > 0;
+      const double a = loading ? DupontShape(std::hypot(z[0], z[1]), z_ba, z_max) : 0.0;
+      rate[0] = v[0] - a * speed * z[0] / z_max;
+      rate[1] = v[1] - a * speed * z[1] / z_max;
+      return;
+    }
+    case Law::kCoulomb:
+      return;
+  }
+}
+
+void AdvancePlanarDeflection(const LawParameters& p, const LawInput& in, const double v[2],
+                             double z[2], double dt) {
+  if (!HasDeflection(p.law)) {
+    z[0] = z[1] = 0.0;
+    return;
+  }
+  double dir[2], speed;
+  if (dt <= 0 || !Direction(v, dir, &speed)) return;
+  const LawInput at = AtSpeed(in, speed);
+  switch (p.law) {
+    case Law::kDahl: {
+      const double z_c = CoulombLevel(p, at, 1.0) / p.contact_stiffness;
+      if (z_c <= 0) {
+        z[0] = z[1] = 0.0;
+        return;
+      }
+      // e = dir - z/z_c keeps its direction; |e| follows the 1D base decay.
+      const double e[2] = {dir[0] - z[0] / z_c, dir[1] - z[1] / z_c};
+      const double e_norm = std::hypot(e[0], e[1]);
+      const double scale =
+          e_norm > 0 ? DecayDahlBase(e_norm, p.alpha, speed * dt / z_c) / e_norm : 0.0;
+      z[0] = z_c * (dir[0] - e[0] * scale);
+      z[1] = z_c * (dir[1] - e[1] * scale);
+      return;
+    }
+    case Law::kLuGre: {
+      const double z_g = StribeckLevel(p, at) / p.contact_stiffness;
+      if (z_g <= 0) {
+        z[0] = z[1] = 0.0;
+        return;
+      }
+      const double decay = std::exp(-speed * dt / z_g);
+      const double z_ss[2] = {dir[0] * z_g, dir[1] * z_g};
+      z[0] = z_ss[0] + (z[0] - z_ss[0]) * decay;
+      z[1] = z_ss[1] + (z[1] - z_ss[1]) * decay;
+      return;
+    }
+    case Law::kDupont:
+      AdvancePlanarDupont(p, at, dir, speed, z, dt);
+      return;
+    case Law::kCoulomb:
+      return;
+  }
+}
+
+void PlanarStateForce(const LawParameters& p, const LawInput& in, const double v[2],
+                      const double z[2], double force[2]) {
+  double rate[2];
+  PlanarDeflectionRate(p, in, v, z, rate);
+  for (int i = 0; i < 2; ++i) {
+    force[i] = p.contact_stiffness * z[i] + p.bristle_damping * rate[i] + p.viscous * v[i];
+  }
+}
+
+void PlanarStickSlipForce(const LawParameters& p, const LawInput& in, const double v[2],
+                          const double v_free[2], const double B[4], double force[2]) {
+  // Force that brings the end-of-step velocity to zero: B F = v_free.
+  double stick[2];
+  const double det = B[0] * B[3] - B[1] * B[2];
+  const double trace = B[0] + B[3];
+  const bool invertible = det > 1e-12 * trace * trace;
+  if (B[1] == 0 && B[2] == 0) {  // decoupled axes (as the 1D element divides)
+    stick[0] = B[0] > 0 ? v_free[0] / B[0] : 0.0;
+    stick[1] = B[3] > 0 ? v_free[1] / B[3] : 0.0;
+  } else if (invertible) {
+    stick[0] = (B[3] * v_free[0] - B[1] * v_free[1]) / det;
+    stick[1] = (B[0] * v_free[1] - B[2] * v_free[0]) / det;
+  } else {  // an axis without response: decide per axis
+    stick[0] = B[0] > 0 ? v_free[0] / B[0] : 0.0;
+    stick[1] = B[3] > 0 ? v_free[1] / B[3] : 0.0;
+  }
+  const double stick_norm = std::hypot(stick[0], stick[1]);
+  LawInput at_rest = in;
+  at_rest.velocity = 0.0;
+  const double static_level = p.static_ratio * CoulombLevel(p, at_rest, 1.0);
+  if (stick_norm <= static_level) {
+    force[0] = stick[0];
+    force[1] = stick[1];
+    return;
+  }
+  const double speed = std::hypot(v[0], v[1]);
+  double kinetic = CoulombLevel(p, in, 1.0);
+  if (p.static_ratio != 1.0) {
+    const double ratio = speed / p.stribeck_velocity;
+    kinetic *= 1.0 + (p.static_ratio - 1.0) * std::exp(-ratio * ratio);
+  }
+  // Sliding: u + kinetic B u/|u| = v_free. With lambda = kinetic/|u|, u = (I + lambda B)^-1
+  // v_free and lambda |u(lambda)| = kinetic, increasing in lambda from 0 to |stick| > kinetic.
+  auto end_velocity = [&](double lambda, double u[2]) {
+    const double a = 1 + lambda * B[0], b = lambda * B[1], c = lambda * B[2], d = 1 + lambda * B[3];
+    const double m_det = a * d - b * c;
+    u[0] = (d * v_free[0] - b * v_free[1]) / m_det;
+    u[1] = (a * v_free[1] - c * v_free[0]) / m_det;
+  };
+  double dir[2] = {stick[0] / stick_norm, stick[1] / stick_norm};
+  const bool one_axis = (v_free[0] == 0 || v_free[1] == 0) && B[1] == 0 && B[2] == 0;
+  if (invertible && !one_axis && kinetic > 0) {
+    const double b_mean = std::max(0.5 * trace, 1e-300);
+    double lo = 0.0, hi = kinetic / (b_mean * std::max(stick_norm - kinetic, 1e-300 * stick_norm));
+    double u[2];
+    for (int k = 0; k < 200; ++k) {  // bracket the root
+      end_velocity(hi, u);
+      if (hi * std::hypot(u[0], u[1]) >= kinetic) break;
+      lo = hi;
+      hi *= 2;
+    }
+    for (int k = 0; k < 100 && hi - lo > 1e-15 * hi; ++k) {
+      const double mid = 0.5 * (lo + hi);
+      end_velocity(mid, u);
+      if (mid * std::hypot(u[0], u[1]) >= kinetic) hi = mid; else lo = mid;
+    }
+    end_velocity(hi, u);
+    const double u_norm = std::hypot(u[0], u[1]);
+    if (u_norm > 0) {
+      dir[0] = u[0] / u_norm;
+      dir[1] = u[1] / u_norm;
+    }
+  }
+  force[0] = kinetic * dir[0] + p.viscous * v[0];
+  force[1] = kinetic * dir[1] + p.viscous * v[1];
+}
+
+void PlanarKinematicCoulombForce(const LawParameters& p, const LawInput& in, const double v[2],
+                                 double force[2]) {
+  double dir[2] = {0.0, 0.0}, speed = 0.0;
+  Direction(v, dir, &speed);
+  const double level = speed > 0 ? StribeckLevel(p, AtSpeed(in, speed)) : 0.0;
+  force[0] = level * dir[0] + p.viscous * v[0];
+  force[1] = level * dir[1] + p.viscous * v[1];
+}
+
 bool ParseLaw(const char* name, Law* law) {
   if (!name) return false;
   static const struct { const char* name; Law law; } kNames[] = {

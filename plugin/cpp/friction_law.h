@@ -75,6 +75,42 @@ double StickSlipForce(const LawParameters& p, const LawInput& in, double stick_f
 // solve is possible, so F = g(v) sgn(v) + s2 v + offset (0 + offset at v = 0).
 double KinematicCoulombForce(const LawParameters& p, const LawInput& in);
 
+// ---- Planar (isotropic) laws: vector velocity v = (v_x, v_y), vector deflection z ----------------
+// The 1D laws written for vectors so that they coincide with the functions above when v and z
+// lie on one axis (plugin/cpp/planar_friction.h has the equations). The levels use the speed
+// |v| (set LawInput::velocity = |v|); asymmetry, position ripple and force offset have no
+// isotropic meaning and are ignored (the planar plugin rejects them). Normal-load modulation
+// applies as in 1D.
+//   dahl    dz/dt = |v| |e|^(alpha-1) e,  e = v/|v| - z/z_c    (|e| decays as the 1D Dahl base)
+//   lugre   dz/dt = v - |v| z / z_g(|v|)
+//   dupont  dz/dt = v - a(|z|) |v| z / z_max(|v|), a = 0 unless z.v > 0 (loading)
+// Deflection rate dz/dt (m/s) at state z.
+void PlanarDeflectionRate(const LawParameters& p, const LawInput& in, const double v[2],
+                          const double z[2], double rate[2]);
+
+// Advances z over dt with v and the input held constant: exact for Dahl (any alpha) and LuGre,
+// exact elastic segment + backward-Euler plastic substeps for Dupont. Never leaves the disc of
+// radius z_max (z_c) when started inside it.
+void AdvancePlanarDeflection(const LawParameters& p, const LawInput& in, const double v[2],
+                             double z[2], double dt);
+
+// Friction force vector F = k_t z + sigma1 dz/dt + sigma2 v (N), against the motion.
+void PlanarStateForce(const LawParameters& p, const LawInput& in, const double v[2],
+                      const double z[2], double force[2]);
+
+// Rigid Coulomb in the plane with a time-stepping stick/slip decision. The velocity at the end
+// of the step responds to the friction force F as v_next = v_free - B F (B = dt J M^-1 J', 2x2,
+// row-major, symmetric positive semi-definite). Sticks (F = B^-1 v_free) when that force is within
+// the static level; else slides at the kinetic level (Stribeck curve at the current speed |v|)
+// opposing the *end-of-step* velocity (maximal dissipation), plus sigma2 v. Reduces to
+// StickSlipForce when everything lies on one axis.
+void PlanarStickSlipForce(const LawParameters& p, const LawInput& in, const double v[2],
+                          const double v_free[2], const double B[4], double force[2]);
+
+// Kinematic Coulomb in the plane: F = g(|v|) v/|v| + sigma2 v (0 at v = 0).
+void PlanarKinematicCoulombForce(const LawParameters& p, const LawInput& in, const double v[2],
+                                 double force[2]);
+
 // True for the laws that keep a deflection state.
 inline bool HasDeflection(Law law) { return law != Law::kCoulomb; }
 

@@ -2,10 +2,12 @@
 // (vibrofriction.load() calls mj_loadPluginLibrary on it).
 #include <mujoco/mjplugin.h>
 
+#include "averaged_friction.h"  // vibrofriction.planar, vibrofriction.averaged
 #include "friction_element.h"
 #include "support_motion.h"
 
 mjPLUGIN_LIB_INIT(vibrofriction) {
   vibrofriction::FrictionElement::RegisterPlugin();
   vibrofriction::SupportMotion::RegisterPlugin();
+  vibrofriction::RegisterPlanarPlugins();
 }

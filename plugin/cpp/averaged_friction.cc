@@ -1,0 +1,353 @@
+#include "averaged_friction.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <utility>
+
+#include "plugin_util.h"
+
+namespace vibrofriction {
+namespace {
+
+constexpr char kMu[] = "mu";
+constexpr char kNormal[] = "normal";
+constexpr char kNormalSensor[] = "normal_sensor";
+constexpr char kNormalGain[] = "normal_gain";
+constexpr char kNormalComponent[] = "normal_component";
+constexpr char kContactGeom1[] = "contact_geom1";
+constexpr char kContactGeom2[] = "contact_geom2";
+constexpr char kViscous[] = "viscous";
+constexpr char kStaticRatio[] = "static_ratio";
+constexpr char kVelocityAmplitude[] = "velocity_amplitude";
+constexpr char kAxisAngle[] = "axis_angle";
+constexpr char kUseCtrl[] = "use_ctrl";
+constexpr char kTableXi[] = "table_xi";
+constexpr char kTableAngle[] = "table_angle";
+constexpr char kTableAlong[] = "table_along";
+constexpr char kTableAcross[] = "table_across";
+
+const char* const kAttributes[] = {
+    kMu, kNormal, kNormalSensor, kNormalGain, kNormalComponent, kContactGeom1, kContactGeom2,
+    kViscous, kStaticRatio, kVelocityAmplitude, kAxisAngle, kUseCtrl, kTableXi, kTableAngle,
+    kTableAlong, kTableAcross};
+
+constexpr char kPlugin[] = "vibrofriction.averaged";
+constexpr double kPi = 3.14159265358979323846;
+
+bool Reject(const char* attr, double value, const char* rule) {
+  mju_warning("%s: attribute '%s'=\"%g\" %s", kPlugin, attr, value, rule);
+  return false;
+}
+
+// Index i with grid[i] <= x < grid[i+1] (clamped to the last cell) and the weight of i+1.
+void Locate(const std::vector<double>& grid, double x, int* index, double* weight) {
+  const int n = static_cast<int>(grid.size());
+  if (x <= grid[0]) {
+    *index = 0;
+    *weight = 0.0;
+    return;
+  }
+  if (x >= grid[n - 1]) {
+    *index = n - 2;
+    *weight = 1.0;
+    return;
+  }
+  const int i = static_cast<int>(std::upper_bound(grid.begin(), grid.end(), x) - grid.begin()) - 1;
+  *index = i;
+  *weight = (x - grid[i]) / (grid[i + 1] - grid[i]);
+}
+
+struct SolveContext {
+  const AveragedFriction* element;
+  double normal_force;
+  double velocity_amplitude;
+};
+
+// Residual R(u) = u + B F(u) - v_free.
+void Residual(const SolveContext& c, const double B[4], const double v_free[2], const double u[2],
+              double r[2]) {
+  double f[2];
+  c.element->Force(u, c.normal_force, c.velocity_amplitude, f);
+  r[0] = u[0] + B[0] * f[0] + B[1] * f[1] - v_free[0];
+  r[1] = u[1] + B[2] * f[0] + B[3] * f[1] - v_free[1];
+}
+
+// Newton with a finite-difference Jacobian and backtracking on |R|; u in/out.
+void SolveEndVelocity(const SolveContext& c, const double B[4], const double v_free[2],
+                      double u[2]) {
+  const double scale = c.velocity_amplitude + std::hypot(v_free[0], v_free[1]);
+  const double tolerance = 1e-12 * scale;
+  double r[2];
+  Residual(c, B, v_free, u, r);
+  double norm = std::hypot(r[0], r[1]);
+  for (int iter = 0; iter < 50 && norm > tolerance; ++iter) {
+    const double h = 1e-7 * (c.velocity_amplitude + std::hypot(u[0], u[1]));
+    double J[4];
+    for (int col = 0; col < 2; ++col) {
+      double up[2] = {u[0], u[1]}, um[2] = {u[0], u[1]}, rp[2], rm[2];
+      up[col] += h;
+      um[col] -= h;
+      Residual(c, B, v_free, up, rp);
+      Residual(c, B, v_free, um, rm);
+      J[col] = (rp[0] - rm[0]) / (2 * h);
+      J[2 + col] = (rp[1] - rm[1]) / (2 * h);
+    }
+    const double det = J[0] * J[3] - J[1] * J[2];
+    double step[2];
+    if (std::fabs(det) > 1e-300) {
+      step[0] = -(J[3] * r[0] - J[1] * r[1]) / det;
+      step[1] = -(J[0] * r[1] - J[2] * r[0]) / det;
+    } else {
+      step[0] = -r[0];
+      step[1] = -r[1];
+    }
+    double alpha = 1.0, trial[2], r_trial[2], norm_trial = norm;
+    for (int k = 0; k < 30; ++k, alpha *= 0.5) {
+      trial[0] = u[0] + alpha * step[0];
+      trial[1] = u[1] + alpha * step[1];
+      Residual(c, B, v_free, trial, r_trial);
+      norm_trial = std::hypot(r_trial[0], r_trial[1]);
+      if (norm_trial < (1 - 1e-4 * alpha) * norm) break;
+    }
+    if (!(norm_trial < norm)) break;  // no progress: keep the best iterate
+    u[0] = trial[0];
+    u[1] = trial[1];
+    r[0] = r_trial[0];
+    r[1] = r_trial[1];
+    norm = norm_trial;
+    if (alpha * std::hypot(step[0], step[1]) <= 1e-15 * scale) break;
+  }
+}
+
+}  // namespace
+
+void AveragedTable::Evaluate(double xi_value, double angle_value, double* f_along,
+                             double* f_across) const {
+  int i, j;
+  double wi, wj;
+  Locate(xi, xi_value, &i, &wi);
+  Locate(angle, angle_value, &j, &wj);
+  const int n = static_cast<int>(angle.size());
+  auto blend = [&](const std::vector<double>& v) {
+    const double a = v[i * n + j] * (1 - wj) + v[i * n + j + 1] * wj;
+    const double b = v[(i + 1) * n + j] * (1 - wj) + v[(i + 1) * n + j + 1] * wj;
+    return a * (1 - wi) + b * wi;
+  };
+  *f_along = blend(along);
+  *f_across = blend(across);
+}
+
+bool AveragedConfig::FromModel(const mjModel* m, int instance, AveragedConfig* config) {
+  AveragedConfig c;
+  LawParameters& p = c.coulomb;
+  p.law = Law::kCoulomb;
+  if (!ReadNumber(m, instance, kPlugin, kMu, 0.2, &p.friction_coefficient) ||
+      !ReadNumber(m, instance, kPlugin, kViscous, 0.0, &p.viscous) ||
+      !ReadNumber(m, instance, kPlugin, kStaticRatio, 1.0, &p.static_ratio) ||
+      !ReadNumber(m, instance, kPlugin, kVelocityAmplitude, 0.0, &c.velocity_amplitude) ||
+      !ReadNumber(m, instance, kPlugin, kAxisAngle, 0.0, &c.axis_angle)) {
+    return false;
+  }
+  if (p.friction_coefficient < 0) return Reject(kMu, p.friction_coefficient, "must be >= 0");
+  if (p.viscous < 0) return Reject(kViscous, p.viscous, "must be >= 0 (N s/m)");
+  if (p.static_ratio < 1) return Reject(kStaticRatio, p.static_ratio, "must be >= 1");
+  if (c.velocity_amplitude < 0) {
+    return Reject(kVelocityAmplitude, c.velocity_amplitude,
+                  "must be >= 0 (m/s), the vibration velocity amplitude the table was made for");
+  }
+  const char* use_ctrl = mj_getPluginConfig(m, instance, kUseCtrl);
+  if (use_ctrl && use_ctrl[0]) {
+    if (std::strcmp(use_ctrl, "true") == 0) {
+      c.use_ctrl = true;
+    } else if (std::strcmp(use_ctrl, "false") != 0) {
+      mju_warning("%s: attribute 'use_ctrl'=\"%s\" must be \"true\" or \"false\"", kPlugin,
+                  use_ctrl);
+      return false;
+    }
+  }
+  AveragedTable& t = c.table;
+  if (!ReadNumberList(m, instance, kPlugin, kTableXi, &t.xi) ||
+      !ReadNumberList(m, instance, kPlugin, kTableAngle, &t.angle) ||
+      !ReadNumberList(m, instance, kPlugin, kTableAlong, &t.along) ||
+      !ReadNumberList(m, instance, kPlugin, kTableAcross, &t.across)) {
+    return false;
+  }
+  if (c.velocity_amplitude > 0) {
+    const char* fix = "; generate the table with vibrofriction.averaged.build_table";
+    if (t.xi.size() < 2 || t.xi[0] != 0.0) {
+      mju_warning("%s: attribute 'table_xi' needs at least 2 increasing values starting at 0%s",
+                  kPlugin, fix);
+      return false;
+    }
+    if (t.angle.size() < 2 || t.angle[0] != 0.0 || std::fabs(t.angle.back() - kPi) > 1e-6) {
+      mju_warning("%s: attribute 'table_angle' needs at least 2 increasing values from 0 to pi "
+                  "(rad)%s", kPlugin, fix);
+      return false;
+    }
+    for (const std::vector<double>* grid : {&t.xi, &t.angle}) {
+      for (size_t k = 1; k < grid->size(); ++k) {
+        if (!((*grid)[k] > (*grid)[k - 1])) {
+          mju_warning("%s: attribute '%s' is not strictly increasing at index %d%s", kPlugin,
+                      grid == &t.xi ? kTableXi : kTableAngle, static_cast<int>(k), fix);
+          return false;
+        }
+      }
+    }
+    const size_t cells = t.xi.size() * t.angle.size();
+    if (t.along.size() != cells || t.across.size() != cells) {
+      mju_warning("%s: attributes 'table_along' and 'table_across' need %d values each "
+                  "(len(table_xi) x len(table_angle)), got %d and %d%s", kPlugin,
+                  static_cast<int>(cells), static_cast<int>(t.along.size()),
+                  static_cast<int>(t.across.size()), fix);
+      return false;
+    }
+    for (size_t k = 0; k < cells; ++k) {
+      if (std::fabs(t.along[k]) > 10 || std::fabs(t.across[k]) > 10) {
+        mju_warning("%s: table value %g at index %d is not a force over mu F_N (|f| <= 10)%s",
+                    kPlugin, std::fabs(t.along[k]) > 10 ? t.along[k] : t.across[k],
+                    static_cast<int>(k), fix);
+        return false;
+      }
+    }
+  } else if (c.use_ctrl) {
+    return Reject(kVelocityAmplitude, c.velocity_amplitude,
+                  "must be > 0 when use_ctrl is true (ctrl scales it)");
+  }
+  if (!NormalLoad::FromModel(m, instance, kPlugin, &c.normal)) return false;
+  p.normal_force = c.normal.normal;
+  if (!PlanarTransmission::FromModel(m, instance, kPlugin, /*need_state=*/false, &c.transmission)) {
+    return false;
+  }
+  *config = c;
+  return true;
+}
+
+AveragedFriction::AveragedFriction(AveragedConfig config, std::string fingerprint)
+    : config_(std::move(config)), fingerprint_(std::move(fingerprint)) {}
+
+std::unique_ptr<AveragedFriction> AveragedFriction::Create(const mjModel* m, int instance) {
+  AveragedConfig config;
+  if (!AveragedConfig::FromModel(m, instance, &config)) return nullptr;
+  return std::unique_ptr<AveragedFriction>(
+      new AveragedFriction(config, ConfigFingerprint(m, instance)));
+}
+
+bool AveragedFriction::Refresh(const mjModel* m, int instance) {
+  std::string fingerprint = ConfigFingerprint(m, instance);
+  if (fingerprint == fingerprint_) return valid_;
+  fingerprint_ = std::move(fingerprint);
+  valid_ = AveragedConfig::FromModel(m, instance, &config_);
+  return valid_;
+}
+
+void AveragedFriction::Force(const double u[2], double normal_force, double velocity_amplitude,
+                             double force[2]) const {
+  const double c = std::cos(config_.axis_angle), s = std::sin(config_.axis_angle);
+  const double along = c * u[0] + s * u[1];
+  const double across = -s * u[0] + c * u[1];
+  const double xi = std::hypot(along, across) / velocity_amplitude;
+  const double angle = std::atan2(std::fabs(across), along);
+  double f_along, f_across;
+  config_.table.Evaluate(xi, angle, &f_along, &f_across);
+  if (across < 0) f_across = -f_across;  // mirror symmetry about the vibration axis
+  const double level = config_.coulomb.friction_coefficient * std::max(normal_force, 0.0);
+  force[0] = level * (c * f_along - s * f_across) + config_.coulomb.viscous * u[0];
+  force[1] = level * (s * f_along + c * f_across) + config_.coulomb.viscous * u[1];
+}
+
+void AveragedFriction::Compute(const mjModel* m, mjData* d, int instance) {
+  const int* out = config_.transmission.output;
+  if (!Refresh(m, instance)) {
+    if (out[0] >= 0) d->actuator_force[out[0]] = 0;
+    if (out[1] >= 0) d->actuator_force[out[1]] = 0;
+    return;
+  }
+  double amplitude = config_.velocity_amplitude;
+  if (config_.use_ctrl) {
+    amplitude *= std::max(0.0, d->ctrl[m->actuator_ctrladr[config_.transmission.actuator[0]]]);
+  }
+  LawInput in;
+  in.time = d->time;
+  in.normal_force = config_.normal.Value(m, d, d->plugin_state + m->plugin_stateadr[instance]);
+  const double v[2] = {d->actuator_velocity[out[0]], d->actuator_velocity[out[1]]};
+  in.velocity = std::hypot(v[0], v[1]);
+  PlanarResponse response;
+  ComputePlanarResponse(m, d, out, &scratch_, &response);
+  double force[2];
+  if (amplitude > 0) {
+    const SolveContext context{this, in.normal_force, amplitude};
+    double u[2] = {v[0], v[1]};
+    SolveEndVelocity(context, response.B, response.v_free, u);
+    Force(u, in.normal_force, amplitude, force);
+  } else {
+    PlanarStickSlipForce(config_.coulomb, in, v, response.v_free, response.B, force);
+  }
+  d->actuator_force[out[0]] = -force[0];
+  d->actuator_force[out[1]] = -force[1];
+}
+
+void AveragedFriction::ComputeSensor(const mjModel* m, mjData* d, int instance) {
+  for (int s = 0; s < m->nsensor; ++s) {
+    if (m->sensor_plugin[s] != instance) continue;
+    mjtNum* sensor = d->sensordata + m->sensor_adr[s];
+    mju_zero(sensor, kSensorDim);
+    if (!Refresh(m, instance)) continue;
+    const int* out = config_.transmission.output;
+    sensor[0] = -d->actuator_force[out[0]];
+    sensor[1] = -d->actuator_force[out[1]];
+    sensor[4] = d->actuator_velocity[out[0]];
+    sensor[5] = d->actuator_velocity[out[1]];
+    sensor[6] = config_.normal.Value(m, d, d->plugin_state + m->plugin_stateadr[instance]);
+  }
+}
+
+void AveragedFriction::Advance(const mjModel* m, mjData* d, int instance) {
+  if (!Refresh(m, instance)) return;
+  config_.normal.Update(m, d, d->plugin_state + m->plugin_stateadr[instance]);
+}
+
+void AveragedFriction::RegisterPlugin() {
+  mjpPlugin plugin;
+  mjp_defaultPlugin(&plugin);
+  plugin.name = kName;
+  plugin.capabilityflags |= mjPLUGIN_ACTUATOR | mjPLUGIN_SENSOR;
+  plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
+  plugin.attributes = kAttributes;
+  plugin.needstage = mjSTAGE_ACC;
+  plugin.nstate = NormalLoad::StateSize;
+  plugin.nsensordata = +[](const mjModel* m, int instance, int sensor_id) {
+    return AveragedFriction::kSensorDim;
+  };
+  plugin.init = +[](const mjModel* m, mjData* d, int instance) {
+    std::unique_ptr<AveragedFriction> element = AveragedFriction::Create(m, instance);
+    if (element == nullptr) return -1;
+    d->plugin_data[instance] = reinterpret_cast<uintptr_t>(element.release());
+    return 0;
+  };
+  plugin.destroy = +[](mjData* d, int instance) {
+    delete reinterpret_cast<AveragedFriction*>(d->plugin_data[instance]);
+    d->plugin_data[instance] = 0;
+  };
+  plugin.reset = +[](const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
+    const int n = NormalLoad::StateSize(m, instance);
+    for (int i = 0; i < n; ++i) plugin_state[i] = 0;
+  };
+  plugin.compute = +[](const mjModel* m, mjData* d, int instance, int capability_bit) {
+    auto* element = reinterpret_cast<AveragedFriction*>(d->plugin_data[instance]);
+    if (capability_bit & mjPLUGIN_ACTUATOR) element->Compute(m, d, instance);
+    if (capability_bit & mjPLUGIN_SENSOR) element->ComputeSensor(m, d, instance);
+  };
+  plugin.advance = +[](const mjModel* m, mjData* d, int instance) {
+    reinterpret_cast<AveragedFriction*>(d->plugin_data[instance])->Advance(m, d, instance);
+  };
+  mjp_registerPlugin(&plugin);
+}
+
+void RegisterPlanarPlugins() {
+  PlanarFriction::RegisterPlugin();
+  AveragedFriction::RegisterPlugin();
+}
+
+}  // namespace vibrofriction

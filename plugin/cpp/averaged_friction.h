@@ -1,0 +1,88 @@
+// Actuator (+ optional sensor) plugin "vibrofriction.averaged": the robot-timestep mode of the
+// planar element. At millisecond timesteps a kHz support vibration cannot be resolved; what the
+// body feels is the friction force averaged over a vibration period as a function of its mean
+// sliding velocity V. This element applies that averaged law,
+//   F(V) = mu F_N R f(|V|/v_a, angle of V from the vibration axis) + sigma2 V,
+// with f a table of the mean force over mu F_N in the vibration frame (components along and
+// across the vibration axis), precomputed from the resolved planar law for the given vibration
+// (vibrofriction/averaged.py, build_table) and stored in the config. Between table points f is
+// interpolated bilinearly in (xi, angle); beyond the last xi it is held at the last row.
+//
+// Like vibrofriction.planar, ONE instance backs TWO actuators (x then y transmissions of the
+// body relative to its support; actdim is not needed). The force is applied implicitly: each step
+// solves u + B F(u) = v_free for the end-of-step velocity u (B = dt J M^-1 J', the same response
+// as the Coulomb stick solve) and applies F(u). A friction law whose slope is large compared with
+// m/dt (the averaged law near V = 0 at small vibration) therefore stays stable at dt = 1-2 ms.
+// With no vibration (velocity_amplitude = 0, or ctrl = 0 with use_ctrl) it is rigid Coulomb with
+// the planar stick solve.
+//
+// Normal load: as vibrofriction.planar (normal + normal_gain * sensor or contact force between
+// contact_geom1 and contact_geom2 of the previous step). The table is normalized by mu F_N; it
+// scales exactly with F_N for rigid contact and approximately for elastic laws (the ratio of
+// vibration amplitude to pre-slip length changes with F_N).
+#ifndef VIBROFRICTION_AVERAGED_FRICTION_H_
+#define VIBROFRICTION_AVERAGED_FRICTION_H_
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <mujoco/mujoco.h>
+
+#include "friction_law.h"
+#include "planar_friction.h"
+
+namespace vibrofriction {
+
+// Mean friction over mu F_N in the vibration frame; xi = |V| / v_a, angle of V from the
+// vibration axis in [0, pi]. Values row-major: index i * angle.size() + j.
+struct AveragedTable {
+  std::vector<double> xi, angle, along, across;
+  // Components (along, across) at xi >= 0 and angle in [0, pi].
+  void Evaluate(double xi_value, double angle_value, double* f_along, double* f_across) const;
+};
+
+struct AveragedConfig {
+  LawParameters coulomb;          // mu, static_ratio, viscous: the no-vibration law
+  NormalLoad normal;
+  PlanarTransmission transmission;
+  AveragedTable table;
+  double velocity_amplitude = 0;  // v_a (m/s) the table was made for
+  double axis_angle = 0;          // vibration axis, from the x transmission towards y (rad)
+  bool use_ctrl = false;          // ctrl of the x actuator scales v_a
+
+  static bool FromModel(const mjModel* m, int instance, AveragedConfig* config);
+};
+
+class AveragedFriction {
+ public:
+  static constexpr char kName[] = "vibrofriction.averaged";
+  static constexpr int kSensorDim = 7;  // F_x, F_y, 0, 0, v_x, v_y, F_N (same layout as planar)
+
+  static std::unique_ptr<AveragedFriction> Create(const mjModel* m, int instance);
+  static void RegisterPlugin();
+
+  void Compute(const mjModel* m, mjData* d, int instance);
+  void ComputeSensor(const mjModel* m, mjData* d, int instance);
+  void Advance(const mjModel* m, mjData* d, int instance);
+
+  // Averaged force (N) at sliding velocity u with normal load F_N and amplitude v_a > 0.
+  void Force(const double u[2], double normal_force, double velocity_amplitude,
+             double force[2]) const;
+
+ private:
+  AveragedFriction(AveragedConfig config, std::string fingerprint);
+  bool Refresh(const mjModel* m, int instance);
+
+  AveragedConfig config_;
+  std::string fingerprint_;
+  bool valid_ = true;
+  std::vector<mjtNum> scratch_;
+};
+
+// Registers vibrofriction.planar and vibrofriction.averaged.
+void RegisterPlanarPlugins();
+
+}  // namespace vibrofriction
+
+#endif  // VIBROFRICTION_AVERAGED_FRICTION_H_

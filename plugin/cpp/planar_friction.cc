@@ -1,0 +1,534 @@
+#include "planar_friction.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <utility>
+
+#include "c_api.h"
+#include "plugin_util.h"
+
+namespace vibrofriction {
+namespace {
+
+// MJCF config keys (docs/readme_robots.md maps each to its Python name).
+constexpr char kLaw[] = "law";
+constexpr char kMu[] = "mu";
+constexpr char kNormal[] = "normal";
+constexpr char kNormalSensor[] = "normal_sensor";
+constexpr char kNormalGain[] = "normal_gain";
+constexpr char kNormalComponent[] = "normal_component";
+constexpr char kContactGeom1[] = "contact_geom1";
+constexpr char kContactGeom2[] = "contact_geom2";
+constexpr char kStiffness[] = "stiffness";
+constexpr char kAlpha[] = "alpha";
+constexpr char kBreakaway[] = "breakaway";
+constexpr char kSigma1[] = "sigma1";
+constexpr char kViscous[] = "viscous";
+constexpr char kStaticRatio[] = "static_ratio";
+constexpr char kStribeckVelocity[] = "stribeck_velocity";
+constexpr char kNormalModulation[] = "normal_modulation";
+constexpr char kModulationFrequency[] = "modulation_frequency";
+constexpr char kModulationPhase[] = "modulation_phase";
+
+const char* const kAttributes[] = {
+    kLaw, kMu, kNormal, kNormalSensor, kNormalGain, kNormalComponent, kContactGeom1,
+    kContactGeom2, kStiffness, kAlpha, kBreakaway, kSigma1, kViscous, kStaticRatio,
+    kStribeckVelocity, kNormalModulation, kModulationFrequency, kModulationPhase};
+
+constexpr char kPlugin[] = "vibrofriction.planar";
+
+bool Reject(const char* plugin, const char* attr, double value, const char* rule) {
+  mju_warning("%s: attribute '%s'=\"%g\" %s", plugin, attr, value, rule);
+  return false;
+}
+
+// World direction of a slide joint's axis at the reference configuration.
+void ReferenceAxis(const mjModel* m, int joint, double axis[3]) {
+  double quat[4] = {1, 0, 0, 0};
+  for (int body = m->jnt_bodyid[joint]; body > 0; body = m->body_parentid[body]) {
+    double q[4];
+    mju_mulQuat(q, m->body_quat + 4 * body, quat);
+    mju_copy4(quat, q);
+  }
+  mju_rotVecQuat(axis, m->jnt_axis + 3 * joint, quat);
+}
+
+}  // namespace
+
+// ---- NormalLoad ----------------------------------------------------------------------------------
+
+bool NormalLoad::FromModel(const mjModel* m, int instance, const char* plugin, NormalLoad* out) {
+  NormalLoad n;
+  double component = 0.0;
+  if (!ReadNumber(m, instance, plugin, kNormal, 0.0, &n.normal) ||
+      !ReadNumber(m, instance, plugin, kNormalGain, 1.0, &n.gain) ||
+      !ReadNumber(m, instance, plugin, kNormalComponent, 0.0, &component)) {
+    return false;
+  }
+  if (n.normal < 0) return Reject(plugin, kNormal, n.normal, "must be >= 0 (N)");
+  const char* sensor_name = mj_getPluginConfig(m, instance, kNormalSensor);
+  const char* geom1 = mj_getPluginConfig(m, instance, kContactGeom1);
+  const char* geom2 = mj_getPluginConfig(m, instance, kContactGeom2);
+  const bool has_sensor = sensor_name && sensor_name[0];
+  const bool has_geom1 = geom1 && geom1[0];
+  const bool has_geom2 = geom2 && geom2[0];
+  if (has_sensor && (has_geom1 || has_geom2)) {
+    mju_warning("%s: attributes 'normal_sensor' and 'contact_geom1/2' are both set; use one "
+                "source for the normal load", plugin);
+    return false;
+  }
+  if (has_sensor) {
+    n.sensor = mj_name2id(m, mjOBJ_SENSOR, sensor_name);
+    if (n.sensor < 0) {
+      mju_warning("%s: attribute 'normal_sensor'=\"%s\" names no sensor; give the sensor that "
+                  "measures the normal load a name and use it here", plugin, sensor_name);
+      return false;
+    }
+    n.component = static_cast<int>(component);
+    if (n.component != component || n.component < 0 || n.component >= m->sensor_dim[n.sensor]) {
+      return Reject(plugin, kNormalComponent, component,
+                    "must be a whole number below the sensor's dimension");
+    }
+  }
+  if (has_geom1 != has_geom2) {
+    mju_warning("%s: only one of 'contact_geom1' and 'contact_geom2' is set; name both geoms "
+                "whose contact carries the normal load", plugin);
+    return false;
+  }
+  if (has_geom1) {
+    n.geom1 = mj_name2id(m, mjOBJ_GEOM, geom1);
+    n.geom2 = mj_name2id(m, mjOBJ_GEOM, geom2);
+    if (n.geom1 < 0 || n.geom2 < 0) {
+      mju_warning("%s: attribute '%s'=\"%s\" names no geom; use the name of a geom of the "
+                  "sliding body and of its support", plugin,
+                  n.geom1 < 0 ? kContactGeom1 : kContactGeom2, n.geom1 < 0 ? geom1 : geom2);
+      return false;
+    }
+    if (n.geom1 == n.geom2) {
+      mju_warning("%s: 'contact_geom1' and 'contact_geom2' name the same geom \"%s\"; name the "
+                  "body's geom and the support's geom", plugin, geom1);
+      return false;
+    }
+  }
+  *out = n;
+  return true;
+}
+
+int NormalLoad::StateSize(const mjModel* m, int instance) {
+  const char* geom1 = mj_getPluginConfig(m, instance, kContactGeom1);
+  return geom1 && geom1[0] ? 1 : 0;
+}
+
+double NormalLoad::Value(const mjModel* m, const mjData* d, const mjtNum* state) const {
+  double value = normal;
+  if (sensor >= 0) value += gain * d->sensordata[m->sensor_adr[sensor] + component];
+  if (geom1 >= 0) value += gain * state[0];
+  return value;
+}
+
+void NormalLoad::Update(const mjModel* m, const mjData* d, mjtNum* state) const {
+  if (geom1 < 0) return;
+  double total = 0.0;
+  for (int i = 0; i < d->ncon; ++i) {
+    const mjContact& c = d->contact[i];
+    const bool match = (c.geom[0] == geom1 && c.geom[1] == geom2) ||
+                       (c.geom[0] == geom2 && c.geom[1] == geom1);
+    if (!match || c.efc_address < 0) continue;
+    mjtNum wrench[6];
+    mj_contactForce(m, d, i, wrench);
+    total += wrench[0];  // normal component, >= 0 (pushing)
+  }
+  state[0] = total;
+}
+
+// ---- PlanarTransmission --------------------------------------------------------------------------
+
+bool PlanarTransmission::FromModel(const mjModel* m, int instance, const char* plugin,
+                                   bool need_state, PlanarTransmission* out) {
+  PlanarTransmission t;
+  int count = 0;
+  for (int i = 0; i < m->nu; ++i) {
+    if (m->actuator_plugin[i] != instance) continue;
+    if (count < 2) t.actuator[count] = i;
+    ++count;
+  }
+  if (count != 2) {
+    mju_warning("%s: the instance backs %d actuator(s); it needs exactly two, declared x then y: "
+                "<plugin joint=\"body_x\" instance=\"..\" actdim=\"1\"/> and the same for y",
+                plugin, count);
+    return false;
+  }
+  for (int k = 0; k < 2; ++k) {
+    const int a = t.actuator[k];
+    if (need_state && m->actuator_actnum[a] < 1) {
+      mju_warning("%s: actuator %d has no state for the deflection z; add actdim=\"1\" to both "
+                  "actuator plugin elements", plugin, a);
+      return false;
+    }
+    t.output[k] = m->actuator_outadr[a];
+    const int type = m->actuator_trntype[a];
+    if (type != mjTRN_JOINT && type != mjTRN_TENDON) {
+      mju_warning("%s: actuator %d must act on a slide joint or a fixed tendon (the body's motion "
+                  "relative to its support)", plugin, a);
+      return false;
+    }
+    if (type == mjTRN_JOINT && m->jnt_type[m->actuator_trnid[2 * a]] != mjJNT_SLIDE) {
+      mju_warning("%s: actuator %d acts on a joint that is not a slide joint; use the body's "
+                  "slide joints along x and y", plugin, a);
+      return false;
+    }
+  }
+  const double gear0 = m->actuator_gear[6 * t.output[0]];
+  const double gear1 = m->actuator_gear[6 * t.output[1]];
+  if (std::fabs(std::fabs(gear0) - std::fabs(gear1)) > 1e-12 * (std::fabs(gear0) + 1)) {
+    mju_warning("%s: the two actuators have different gear (%g, %g); isotropic friction needs "
+                "equal gear (leave gear at 1)", plugin, gear0, gear1);
+    return false;
+  }
+  if (m->actuator_trntype[t.actuator[0]] == mjTRN_JOINT &&
+      m->actuator_trntype[t.actuator[1]] == mjTRN_JOINT) {
+    double axis0[3], axis1[3];
+    ReferenceAxis(m, m->actuator_trnid[2 * t.actuator[0]], axis0);
+    ReferenceAxis(m, m->actuator_trnid[2 * t.actuator[1]], axis1);
+    const double cosine = mju_dot3(axis0, axis1) / (mju_norm3(axis0) * mju_norm3(axis1));
+    if (std::fabs(cosine) > 1e-6) {
+      mju_warning("%s: the two slide joints are not orthogonal (cos = %g); give them "
+                  "perpendicular in-plane axes, e.g. axis=\"1 0 0\" and axis=\"0 1 0\"", plugin,
+                  cosine);
+      return false;
+    }
+  }
+  *out = t;
+  return true;
+}
+
+// ---- Step response -------------------------------------------------------------------------------
+
+void ComputePlanarResponse(const mjModel* m, mjData* d, const int output[2],
+                           std::vector<mjtNum>* scratch, PlanarResponse* response) {
+  const int nv = m->nv;
+  scratch->assign(4 * nv, 0.0);
+  mjtNum* force = scratch->data();
+  mjtNum* solved = force + nv;
+  mjtNum* row = force + 2 * nv;
+  for (int i = 0; i < nv; ++i) {
+    force[i] = d->qfrc_passive[i] - d->qfrc_bias[i] + d->qfrc_applied[i];
+  }
+  for (int j = 0; j < m->nout; ++j) {
+    if (j == output[0] || j == output[1] || d->actuator_force[j] == 0) continue;
+    const int adr = d->moment_rowadr[j];
+    for (int k = 0; k < d->moment_rownnz[j]; ++k) {
+      force[d->moment_colind[adr + k]] += d->actuator_moment[adr + k] * d->actuator_force[j];
+    }
+  }
+  auto project = [&](int out, const mjtNum* vec) {
+    const int adr = d->moment_rowadr[out];
+    double value = 0.0;
+    for (int k = 0; k < d->moment_rownnz[out]; ++k) {
+      value += d->actuator_moment[adr + k] * vec[d->moment_colind[adr + k]];
+    }
+    return value;
+  };
+  const double dt = m->opt.timestep;
+  mj_solveM(m, d, solved, force, 1);
+  for (int k = 0; k < 2; ++k) {
+    response->v_free[k] = d->actuator_velocity[output[k]] + dt * project(output[k], solved);
+  }
+  for (int col = 0; col < 2; ++col) {
+    mju_zero(row, nv);
+    const int adr = d->moment_rowadr[output[col]];
+    for (int k = 0; k < d->moment_rownnz[output[col]]; ++k) {
+      row[d->moment_colind[adr + k]] = d->actuator_moment[adr + k];
+    }
+    mj_solveM(m, d, solved, row, 1);
+    for (int r = 0; r < 2; ++r) response->B[2 * r + col] = dt * project(output[r], solved);
+  }
+  // Symmetrize (J M^-1 J' is symmetric up to rounding).
+  const double offdiag = 0.5 * (response->B[1] + response->B[2]);
+  response->B[1] = response->B[2] = offdiag;
+}
+
+bool ReadNumberList(const mjModel* m, int instance, const char* plugin, const char* attr,
+                    std::vector<double>* out) {
+  out->clear();
+  const char* text = mj_getPluginConfig(m, instance, attr);
+  if (text == nullptr || text[0] == '\0') return true;
+  const char* cursor = text;
+  while (true) {
+    while (*cursor == ' ' || *cursor == '\t' || *cursor == '\n' || *cursor == '\r') ++cursor;
+    if (*cursor == '\0') break;
+    char* end = nullptr;
+    errno = 0;
+    const double value = std::strtod(cursor, &end);
+    if (end == cursor || errno == ERANGE || !std::isfinite(value) ||
+        !(*end == '\0' || *end == ' ' || *end == '\t' || *end == '\n' || *end == '\r')) {
+      mju_warning("%s: attribute '%s' has a non-number at position %d; write finite numbers "
+                  "separated by spaces", plugin, attr, static_cast<int>(cursor - text));
+      return false;
+    }
+    out->push_back(value);
+    cursor = end;
+  }
+  return true;
+}
+
+// ---- PlanarConfig --------------------------------------------------------------------------------
+
+bool PlanarConfig::FromModel(const mjModel* m, int instance, PlanarConfig* config) {
+  PlanarConfig c;
+  LawParameters& p = c.law;
+  const char* law_name = mj_getPluginConfig(m, instance, kLaw);
+  if (law_name == nullptr || law_name[0] == '\0') {
+    mju_warning("%s: attribute 'law' is missing; add <config key=\"law\" value=\"dahl\"/> "
+                "(one of coulomb, dahl, dupont, lugre)", kPlugin);
+    return false;
+  }
+  if (!ParseLaw(law_name, &p.law)) {
+    mju_warning("%s: attribute 'law'=\"%s\" is not a friction law; use one of coulomb, dahl, "
+                "dupont, lugre", kPlugin, law_name);
+    return false;
+  }
+  struct Spec {
+    const char* attr;
+    double* target;
+    double default_value;
+  };
+  const Spec numbers[] = {
+      {kMu, &p.friction_coefficient, 0.2},
+      {kStiffness, &p.contact_stiffness, 8e7},
+      {kAlpha, &p.alpha, 1.0},
+      {kBreakaway, &p.breakaway_ratio, 0.7},
+      {kSigma1, &p.bristle_damping, 0.0},
+      {kViscous, &p.viscous, 0.0},
+      {kStaticRatio, &p.static_ratio, 1.0},
+      {kStribeckVelocity, &p.stribeck_velocity, 1e-3},
+      {kNormalModulation, &p.normal_modulation, 0.0},
+      {kModulationFrequency, &p.normal_modulation_frequency, 0.0},
+      {kModulationPhase, &p.normal_modulation_phase, 0.0},
+  };
+  for (const Spec& spec : numbers) {
+    if (!ReadNumber(m, instance, kPlugin, spec.attr, spec.default_value, spec.target)) {
+      return false;
+    }
+  }
+  if (p.friction_coefficient < 0) return Reject(kPlugin, kMu, p.friction_coefficient, "must be >= 0");
+  if (HasDeflection(p.law) && p.contact_stiffness <= 0) {
+    return Reject(kPlugin, kStiffness, p.contact_stiffness,
+                  "must be > 0 (N/m), e.g. 1e6 for a small part on a plate");
+  }
+  if (p.alpha < 0) return Reject(kPlugin, kAlpha, p.alpha, "must be >= 0 (1 is Dahl's usual value)");
+  if (!(p.breakaway_ratio > 0 && p.breakaway_ratio < 1)) {
+    return Reject(kPlugin, kBreakaway, p.breakaway_ratio, "must lie in (0, 1), e.g. 0.7");
+  }
+  if (p.bristle_damping < 0) return Reject(kPlugin, kSigma1, p.bristle_damping, "must be >= 0 (N s/m)");
+  if (p.viscous < 0) return Reject(kPlugin, kViscous, p.viscous, "must be >= 0 (N s/m)");
+  if (p.static_ratio < 1) return Reject(kPlugin, kStaticRatio, p.static_ratio, "must be >= 1");
+  if (p.stribeck_velocity <= 0) {
+    return Reject(kPlugin, kStribeckVelocity, p.stribeck_velocity, "must be > 0 (m/s)");
+  }
+  if (!(p.normal_modulation >= 0 && p.normal_modulation < 1)) {
+    return Reject(kPlugin, kNormalModulation, p.normal_modulation, "must lie in [0, 1)");
+  }
+  if (p.normal_modulation_frequency < 0) {
+    return Reject(kPlugin, kModulationFrequency, p.normal_modulation_frequency, "must be >= 0 (Hz)");
+  }
+  if (!NormalLoad::FromModel(m, instance, kPlugin, &c.normal)) return false;
+  p.normal_force = c.normal.normal;
+  if (!PlanarTransmission::FromModel(m, instance, kPlugin, /*need_state=*/true, &c.transmission)) {
+    return false;
+  }
+  for (int k = 0; k < 2; ++k) c.act_address[k] = m->actuator_actadr[c.transmission.actuator[k]];
+  *config = c;
+  return true;
+}
+
+// ---- PlanarFriction ------------------------------------------------------------------------------
+
+PlanarFriction::PlanarFriction(PlanarConfig config, std::string fingerprint)
+    : config_(std::move(config)), fingerprint_(std::move(fingerprint)) {}
+
+std::unique_ptr<PlanarFriction> PlanarFriction::Create(const mjModel* m, int instance) {
+  PlanarConfig config;
+  if (!PlanarConfig::FromModel(m, instance, &config)) return nullptr;
+  return std::unique_ptr<PlanarFriction>(
+      new PlanarFriction(config, ConfigFingerprint(m, instance)));
+}
+
+bool PlanarFriction::Refresh(const mjModel* m, int instance) {
+  std::string fingerprint = ConfigFingerprint(m, instance);
+  if (fingerprint == fingerprint_) return valid_;
+  fingerprint_ = std::move(fingerprint);
+  valid_ = PlanarConfig::FromModel(m, instance, &config_);
+  return valid_;
+}
+
+LawInput PlanarFriction::Input(const mjModel* m, const mjData* d, int instance) const {
+  LawInput in;
+  in.time = d->time;
+  in.normal_force = config_.normal.Value(m, d, d->plugin_state + m->plugin_stateadr[instance]);
+  return in;
+}
+
+void PlanarFriction::Compute(const mjModel* m, mjData* d, int instance) {
+  const int* out = config_.transmission.output;
+  if (!Refresh(m, instance)) {
+    if (out[0] >= 0) d->actuator_force[out[0]] = 0;
+    if (out[1] >= 0) d->actuator_force[out[1]] = 0;
+    return;
+  }
+  const LawParameters& p = config_.law;
+  LawInput in = Input(m, d, instance);
+  const double v[2] = {d->actuator_velocity[out[0]], d->actuator_velocity[out[1]]};
+  in.velocity = std::hypot(v[0], v[1]);
+  double force[2];
+  if (HasDeflection(p.law)) {
+    const double z[2] = {d->act[config_.act_address[0]], d->act[config_.act_address[1]]};
+    PlanarStateForce(p, in, v, z, force);
+  } else {
+    PlanarResponse response;
+    ComputePlanarResponse(m, d, out, &scratch_, &response);
+    PlanarStickSlipForce(p, in, v, response.v_free, response.B, force);
+  }
+  d->actuator_force[out[0]] = -force[0];
+  d->actuator_force[out[1]] = -force[1];
+}
+
+void PlanarFriction::ComputeSensor(const mjModel* m, mjData* d, int instance) {
+  for (int s = 0; s < m->nsensor; ++s) {
+    if (m->sensor_plugin[s] != instance) continue;
+    mjtNum* sensor = d->sensordata + m->sensor_adr[s];
+    if (!Refresh(m, instance)) {
+      mju_zero(sensor, kSensorDim);
+      continue;
+    }
+    const int* out = config_.transmission.output;
+    const LawInput in = Input(m, d, instance);
+    const bool state = HasDeflection(config_.law.law);
+    sensor[0] = -d->actuator_force[out[0]];
+    sensor[1] = -d->actuator_force[out[1]];
+    sensor[2] = state ? d->act[config_.act_address[0]] : 0.0;
+    sensor[3] = state ? d->act[config_.act_address[1]] : 0.0;
+    sensor[4] = d->actuator_velocity[out[0]];
+    sensor[5] = d->actuator_velocity[out[1]];
+    const double mu = config_.law.friction_coefficient;
+    sensor[6] = CoulombLevel(config_.law, in, 0) / (mu > 0 ? mu : 1.0);
+  }
+}
+
+void PlanarFriction::Advance(const mjModel* m, mjData* d, int instance) {
+  if (!Refresh(m, instance)) return;
+  // This step's contacts give the normal load of the next step (and of this z update, as the
+  // sensor input does in vibrofriction.friction).
+  config_.normal.Update(m, d, d->plugin_state + m->plugin_stateadr[instance]);
+  if (!HasDeflection(config_.law.law)) return;
+  const double dt = m->opt.timestep;
+  const int* out = config_.transmission.output;
+  LawInput in = Input(m, d, instance);
+  in.time = d->time - 0.5 * dt;  // mid-step: time has already advanced
+  const double v[2] = {TransmissionVelocity(m, d, out[0]), TransmissionVelocity(m, d, out[1])};
+  double z[2] = {d->act[config_.act_address[0]], d->act[config_.act_address[1]]};
+  AdvancePlanarDeflection(config_.law, in, v, z, dt);
+  d->act[config_.act_address[0]] = z[0];
+  d->act[config_.act_address[1]] = z[1];
+}
+
+void PlanarFriction::RegisterPlugin() {
+  mjpPlugin plugin;
+  mjp_defaultPlugin(&plugin);
+  plugin.name = kName;
+  plugin.capabilityflags |= mjPLUGIN_ACTUATOR | mjPLUGIN_SENSOR;
+  plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
+  plugin.attributes = kAttributes;
+  plugin.needstage = mjSTAGE_ACC;
+  plugin.nstate = NormalLoad::StateSize;
+  plugin.nsensordata = +[](const mjModel* m, int instance, int sensor_id) {
+    return PlanarFriction::kSensorDim;
+  };
+  plugin.init = +[](const mjModel* m, mjData* d, int instance) {
+    std::unique_ptr<PlanarFriction> element = PlanarFriction::Create(m, instance);
+    if (element == nullptr) return -1;
+    d->plugin_data[instance] = reinterpret_cast<uintptr_t>(element.release());
+    return 0;
+  };
+  plugin.destroy = +[](mjData* d, int instance) {
+    delete reinterpret_cast<PlanarFriction*>(d->plugin_data[instance]);
+    d->plugin_data[instance] = 0;
+  };
+  plugin.reset = +[](const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
+    const int n = NormalLoad::StateSize(m, instance);
+    for (int i = 0; i < n; ++i) plugin_state[i] = 0;  // no contact force before the first step
+  };
+  plugin.compute = +[](const mjModel* m, mjData* d, int instance, int capability_bit) {
+    auto* element = reinterpret_cast<PlanarFriction*>(d->plugin_data[instance]);
+    if (capability_bit & mjPLUGIN_ACTUATOR) element->Compute(m, d, instance);
+    if (capability_bit & mjPLUGIN_SENSOR) element->ComputeSensor(m, d, instance);
+  };
+  plugin.advance = +[](const mjModel* m, mjData* d, int instance) {
+    reinterpret_cast<PlanarFriction*>(d->plugin_data[instance])->Advance(m, d, instance);
+  };
+  mjp_registerPlugin(&plugin);
+}
+
+}  // namespace vibrofriction
+
+// ---- C API: the planar law along a prescribed velocity history (vibrofriction/planar.py) --------
+
+extern "C" {
+
+// Same step order as vf_run_law: force i uses (z_i, v_i); z_{i+1} advances over [t_i, t_{i+1}]
+// with the input at t_{i+1}. Coulomb is kinematic (no stick solve). Effects other than the
+// normal-load modulation must be 0. normal_force may be NULL. Returns 0, or -1 on bad arguments.
+int vf_run_planar_law(const vf_law_parameters* params, int n, const double* time,
+                      const double* vx, const double* vy, const double* normal_force, double z0x,
+                      double z0y, double* fx, double* fy, double* zx, double* zy) {
+  using namespace vibrofriction;
+  if (!params || n < 0 || !time || !vx || !vy || !fx || !fy || !zx || !zy) return -1;
+  if (params->law < 0 || params->law > 3) return -1;
+  if (params->asymmetry != 0 || params->ripple != 0 || params->force_offset != 0) return -1;
+  LawParameters p;
+  p.law = static_cast<Law>(params->law);
+  p.friction_coefficient = params->friction_coefficient;
+  p.normal_force = params->normal_force;
+  p.contact_stiffness = params->contact_stiffness;
+  p.alpha = params->alpha;
+  p.breakaway_ratio = params->breakaway_ratio;
+  p.bristle_damping = params->bristle_damping;
+  p.viscous = params->viscous;
+  p.static_ratio = params->static_ratio;
+  p.stribeck_velocity = params->stribeck_velocity;
+  p.normal_modulation = params->normal_modulation;
+  p.normal_modulation_frequency = params->normal_modulation_frequency;
+  p.normal_modulation_phase = params->normal_modulation_phase;
+  auto input = [&](int i) {
+    LawInput in;
+    in.time = time[i];
+    in.normal_force = normal_force ? normal_force[i] : p.normal_force;
+    in.velocity = std::hypot(vx[i], vy[i]);
+    return in;
+  };
+  const bool state = HasDeflection(p.law);
+  double z[2] = {state ? z0x : 0.0, state ? z0y : 0.0};
+  for (int i = 0; i < n; ++i) {
+    const LawInput in = input(i);
+    const double v[2] = {vx[i], vy[i]};
+    double force[2];
+    zx[i] = z[0];
+    zy[i] = z[1];
+    if (state) {
+      PlanarStateForce(p, in, v, z, force);
+    } else {
+      PlanarKinematicCoulombForce(p, in, v, force);
+    }
+    fx[i] = force[0];
+    fy[i] = force[1];
+    if (state && i + 1 < n) {
+      const double v_next[2] = {vx[i + 1], vy[i + 1]};
+      AdvancePlanarDeflection(p, input(i + 1), v_next, z, time[i + 1] - time[i]);
+    }
+  }
+  return 0;
+}
+
+}  // extern "C"

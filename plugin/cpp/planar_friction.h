@@ -1,0 +1,111 @@
+// Actuator (+ optional sensor) plugin "vibrofriction.planar": isotropic dynamic friction of a
+// body sliding in a plane over its (possibly vibrating) support. ONE instance backs TWO
+// actuators, declared in order x then y, each on a transmission that measures the body's motion
+// relative to the support along one of two orthogonal in-plane directions (slide joints of the
+// body inside the support body, or fixed tendons). Each actuator has actdim="1": the deflection
+// vector z = (z_x, z_y) is (act[x], act[y]).
+//
+// With v = (v_x, v_y) the relative velocity (the two transmission velocities):
+//   dahl    dz/dt = |v| |e|^(alpha-1) e,   e = v/|v| - z/z_c,  z_c = mu F_N / k_t
+//   lugre   dz/dt = v - |v| z / z_g(|v|),  z_g = g(|v|) / k_t
+//   dupont  dz/dt = v - a(|z|) |v| z / z_max(|v|), a = 0 unless z.v > 0 (loading) and |z| > z_ba
+//   F = k_t z + sigma1 dz/dt + sigma2 v;    the actuators apply -F.
+//   coulomb F = g(|v|) u/|u| + sigma2 v with u the end-of-step velocity (time-stepping, maximal
+//           dissipation), or the force that stops the body within the step when |F| <= F_s.
+// Each law reduces exactly to the 1D law of vibrofriction.friction when v and z lie on one axis.
+// Step order as vibrofriction.friction: the force of step n uses (z_n, v_n); `advance` updates z
+// in closed form (Dahl, LuGre) or unconditionally stably (Dupont) with the new velocity v_{n+1}.
+//
+// Normal load F_N = normal + normal_gain * (sensor value | contact normal force between
+// contact_geom1 and contact_geom2). Both the sensor and the contact force are those of the
+// previous step (the actuators are computed before the constraint solve); the contact force is
+// summed over every contact between the two geoms in `advance` and kept in plugin_state.
+#ifndef VIBROFRICTION_PLANAR_FRICTION_H_
+#define VIBROFRICTION_PLANAR_FRICTION_H_
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <mujoco/mujoco.h>
+
+#include "friction_law.h"
+
+namespace vibrofriction {
+
+// Normal-load input shared by the planar and the averaged elements.
+struct NormalLoad {
+  double normal = 0.0;   // constant part (N)
+  double gain = 1.0;     // multiplies the sensor value or the contact force
+  int sensor = -1;       // sensor id, -1: none
+  int component = 0;     // component of that sensor
+  int geom1 = -1;        // contact normal force between geom1 and geom2, -1: none
+  int geom2 = -1;
+
+  // Reads normal, normal_gain, normal_sensor, normal_component, contact_geom1, contact_geom2.
+  static bool FromModel(const mjModel* m, int instance, const char* plugin, NormalLoad* out);
+  static int StateSize(const mjModel* m, int instance);  // 1 when contact geoms are named
+  bool UsesContacts() const { return geom1 >= 0; }
+  // F_N before modulation; `state` is the instance's plugin_state.
+  double Value(const mjModel* m, const mjData* d, const mjtNum* state) const;
+  // Stores the normal force of this step's contacts (call from advance).
+  void Update(const mjModel* m, const mjData* d, mjtNum* state) const;
+};
+
+// The two actuators of a planar instance and their outputs, checked for orthogonality.
+struct PlanarTransmission {
+  int actuator[2] = {-1, -1};
+  int output[2] = {-1, -1};
+  static bool FromModel(const mjModel* m, int instance, const char* plugin, bool need_state,
+                        PlanarTransmission* out);
+};
+
+// Response of the two transmissions to their forces over one semi-implicit Euler step:
+// v_next = v_free + B f, B = dt J M^-1 J' (row-major 2x2), every force known at this point
+// (passive, bias, applied, actuators other than these two) included in v_free.
+struct PlanarResponse {
+  double v_free[2] = {0.0, 0.0};
+  double B[4] = {0.0, 0.0, 0.0, 0.0};
+};
+void ComputePlanarResponse(const mjModel* m, mjData* d, const int output[2],
+                           std::vector<mjtNum>* scratch, PlanarResponse* response);
+
+// Strict parsing of a whitespace-separated list of finite numbers.
+bool ReadNumberList(const mjModel* m, int instance, const char* plugin, const char* attr,
+                    std::vector<double>* out);
+
+struct PlanarConfig {
+  LawParameters law;
+  NormalLoad normal;
+  PlanarTransmission transmission;
+  int act_address[2] = {-1, -1};
+
+  static bool FromModel(const mjModel* m, int instance, PlanarConfig* config);
+};
+
+class PlanarFriction {
+ public:
+  static constexpr char kName[] = "vibrofriction.planar";
+  static constexpr int kSensorDim = 7;  // F_x, F_y, z_x, z_y, v_x, v_y, F_N (modulated)
+
+  static std::unique_ptr<PlanarFriction> Create(const mjModel* m, int instance);
+  static void RegisterPlugin();
+
+  void Compute(const mjModel* m, mjData* d, int instance);
+  void ComputeSensor(const mjModel* m, mjData* d, int instance);
+  void Advance(const mjModel* m, mjData* d, int instance);
+
+ private:
+  PlanarFriction(PlanarConfig config, std::string fingerprint);
+  bool Refresh(const mjModel* m, int instance);
+  LawInput Input(const mjModel* m, const mjData* d, int instance) const;
+
+  PlanarConfig config_;
+  std::string fingerprint_;
+  bool valid_ = true;
+  std::vector<mjtNum> scratch_;
+};
+
+}  // namespace vibrofriction
+
+#endif  // VIBROFRICTION_PLANAR_FRICTION_H_
