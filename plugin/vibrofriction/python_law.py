@@ -180,16 +180,20 @@ def simulate_python_law(rig: RigParameters, friction: FrictionParameters,
 def _run_from_rollout(model: mujoco.MjModel, rig: RigParameters, friction: FrictionParameters,
                       initial: np.ndarray, state: np.ndarray, sensordata: np.ndarray,
                       settle_time_s: float) -> rig_module.RigRun:
-    # Sensor row i is computed before step i; state row i is after step i.
+    # Sensor row i is computed in step i (at t_i); state row i is after step i. With actearly
+    # the force of step i uses the z after the step, so that z is the deflection of row i;
+    # without, it uses the z before the step.
     sensors = {}
     for i in range(model.nsensor):
         name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i)
         sensors[name] = sensordata[:, model.sensor_adr[i]]
     act_offset = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_TIME |
                                      mujoco.mjtState.mjSTATE_QPOS | mujoco.mjtState.mjSTATE_QVEL)
-    act_index = act_offset + model.actuator_actadr[
-        mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, FRICTION_ACTUATOR)]
-    deflection = np.concatenate([[initial[act_index]], state[:-1, act_index]])
+    actuator = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, FRICTION_ACTUATOR)
+    act_index = act_offset + model.actuator_actadr[actuator]
+    deflection = state[:, act_index]
+    if not model.actuator_actearly[actuator]:
+        deflection = np.concatenate([[initial[act_index]], deflection[:-1]])
     n = sensordata.shape[0]
     return rig_module.RigRun(
         rig=rig, friction=friction, timestep_s=model.opt.timestep, settle_time_s=settle_time_s,

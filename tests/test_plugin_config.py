@@ -1,0 +1,152 @@
+"""Strict config validation: every invalid attribute of vibrofriction.friction and
+vibrofriction.motion makes model compilation fail with a message that names the attribute (and
+says what to write); the MuJoCo version check names both versions."""
+from __future__ import annotations
+
+import mujoco
+import pytest
+
+import vibrofriction
+from vibrofriction import rig as rig_module
+from vibrofriction.params import RigParameters, default_friction
+
+KEEP = object()
+
+
+def _spec(law: str = "dahl") -> mujoco.MjSpec:
+    rig = RigParameters(vibration_velocity_amplitude_m_per_s=3e-3)
+    return rig_module.build_spec(rig, default_friction(law, rig), 1e-5)
+
+
+def _set_config(spec: mujoco.MjSpec, instance: str, changes: dict) -> None:
+    for plugin in spec.plugins:
+        if plugin.name == instance:
+            config = dict(plugin.config)
+            for key, value in changes.items():
+                if value is None:
+                    config.pop(key, None)
+                else:
+                    config[key] = value
+            plugin.config = config
+            return
+    raise AssertionError(f"no plugin instance {instance}")
+
+
+def _compile_error(spec: mujoco.MjSpec) -> str:
+    with pytest.raises(ValueError) as info:
+        spec.compile()
+    return str(info.value)
+
+
+def test_the_valid_scenes_compile_and_step():
+    for law in ("coulomb", "dahl", "dupont", "lugre"):
+        model = mujoco.MjModel.from_xml_path(str(rig_module.scene_path(law)))
+        data = mujoco.MjData(model)
+        for _ in range(100):
+            mujoco.mj_step(model, data)
+        assert data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number == 0
+
+
+FRICTION_CASES = [
+    # (changes, attribute named, a word of the fix)
+    ({"mu": "-0.1"}, "mu", ">= 0"),
+    ({"normal": "-5"}, "normal", ">= 0"),
+    ({"stiffness": "0"}, "stiffness", "> 0"),
+    ({"stiffness": "1e7x"}, "stiffness", "plain number"),
+    ({"alpha": "-1"}, "alpha", ">= 0"),
+    ({"alpha": "nan"}, "alpha", "finite number"),
+    ({"breakaway": "1"}, "breakaway", "(0, 1)"),
+    ({"breakaway": "0"}, "breakaway", "(0, 1)"),
+    ({"sigma1": "-1"}, "sigma1", ">= 0"),
+    ({"viscous": "-1"}, "viscous", ">= 0"),
+    ({"static_ratio": "0.9"}, "static_ratio", ">= 1"),
+    ({"stribeck_velocity": "0"}, "stribeck_velocity", "> 0"),
+    ({"asymmetry": "1"}, "asymmetry", "(-1, 1)"),
+    ({"ripple": "1"}, "ripple", "[0, 1)"),
+    ({"ripple_wavelength": "0"}, "ripple_wavelength", "> 0"),
+    ({"ripple_phase": "pi"}, "ripple_phase", "plain number"),
+    ({"normal_modulation": "1.5"}, "normal_modulation", "[0, 1)"),
+    ({"modulation_frequency": "-1"}, "modulation_frequency", ">= 0"),
+    ({"modulation_phase": "1e400"}, "modulation_phase", "finite number"),
+    ({"force_offset": "0.1 N"}, "force_offset", "plain number"),
+    ({"sensor_lag": "-1e-3"}, "sensor_lag", ">= 0"),
+    ({"normal_sensor": "no_such_sensor"}, "normal_sensor", "names no sensor"),
+    ({"normal_sensor": "drive_force", "normal_component": "1"}, "normal_component",
+     "dimension"),
+    ({"normal_sensor": "drive_force", "normal_gain": "x2"}, "normal_gain", "plain number"),
+    ({"law": "stribeck"}, "law", "coulomb, dahl, dupont, lugre"),
+    ({"law": None}, "law", 'add <config key="law"'),
+    ({"law": "Dahl"}, "law", "coulomb, dahl, dupont, lugre"),
+]
+
+
+@pytest.mark.parametrize("changes, attribute, fix", FRICTION_CASES,
+                         ids=[f"{c[1]}={list(c[0].values())[-1]}" for c in FRICTION_CASES])
+def test_invalid_friction_attribute_is_named(changes, attribute, fix):
+    spec = _spec()
+    _set_config(spec, "friction", changes)
+    message = _compile_error(spec)
+    assert "vibrofriction.friction" in message
+    assert f"'{attribute}'" in message
+    assert fix in message
+
+
+def test_unknown_friction_attribute_is_rejected_by_mujoco():
+    spec = _spec()
+    _set_config(spec, "friction", {"mue": "0.3"})
+    assert "mue" in _compile_error(spec)
+
+
+def test_missing_actdim_is_named_with_the_fix():
+    for actdim in (-1, 0):
+        spec = _spec()
+        spec.actuator("friction").actdim = actdim
+        message = _compile_error(spec)
+        assert "deflection z" in message and 'actdim="1"' in message
+
+
+def test_instance_without_actuator_is_named():
+    spec = _spec()
+    spec.delete(spec.actuator("friction"))
+    message = _compile_error(spec)
+    assert "vibrofriction.friction" in message and "no actuator" in message
+
+
+MOTION_CASES = [
+    ("table_shaker", {"frequency": "-4000"}, "frequency", ">= 0"),
+    ("table_shaker", {"frequency": "4 kHz"}, "frequency", "plain number"),
+    ("table_shaker", {"velocity_amplitude": "-1e-3"}, "velocity_amplitude", ">= 0"),
+    ("table_shaker", {"frequency": "0"}, "frequency", "set frequency"),
+    ("table_shaker", {"phase": "inf"}, "phase", "finite number"),
+    ("table_shaker", {"use_ctrl": "yes"}, "use_ctrl", '"true" or "false"'),
+    ("drive_end_motion", {"velocity": "1e7x"}, "velocity", "plain number"),
+]
+
+
+@pytest.mark.parametrize("instance, changes, attribute, fix", MOTION_CASES,
+                         ids=[f"{c[2]}={list(c[1].values())[-1]}" for c in MOTION_CASES])
+def test_invalid_motion_attribute_is_named(instance, changes, attribute, fix):
+    spec = _spec()
+    _set_config(spec, instance, changes)
+    message = _compile_error(spec)
+    assert "vibrofriction.motion" in message
+    assert attribute in message
+    assert fix in message
+
+
+def test_version_mismatch_names_both_versions():
+    with pytest.raises(vibrofriction.MujocoVersionMismatch) as info:
+        vibrofriction.check_mujoco_version(runtime="3.9.9", compiled="4.0.0")
+    message = str(info.value)
+    assert "3.9.9" in message and "4.0.0" in message
+    assert "mujoco==4.0.0" in message  # and the fix
+    assert isinstance(info.value, ImportError)
+
+
+def test_matching_versions_pass():
+    vibrofriction.check_mujoco_version(runtime="4.0.0", compiled="4.0.0")
+    vibrofriction.check_mujoco_version()  # the installed build
+
+
+def test_load_is_idempotent():
+    assert vibrofriction.load() is vibrofriction.load()
