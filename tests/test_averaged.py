@@ -1,0 +1,127 @@
+"""The robot-timestep mode vibrofriction.averaged: the table reproduces the analytic kinematic
+limits for rigid Coulomb, the averaged rig at dt = 1 ms matches the resolved rig (dt = 10 us)
+within 3 % in mean force, it is stable at dt = 1-2 ms even for light bodies, and without
+vibration it is rigid Coulomb with stick."""
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from vibrofriction import averaged, planar
+from vibrofriction.params import FrictionParameters, RigParameters
+
+# A 0.2 kg part on a plate vibrating at 2 kHz with v_a = 50 mm/s (u0 = 4 um), mu = 0.3,
+# Dahl with k_t = 1 N/um: eps = k_t u0 / (mu F_N) = 6.8, m omega^2 / k_t = 32 (heavy body).
+MASS_KG = 0.2
+NORMAL_N = MASS_KG * 9.81
+PART = FrictionParameters(law="dahl", friction_coefficient=0.3, contact_stiffness_N_per_m=1e6)
+VIBRATION = averaged.Vibration(frequency_Hz=2000.0, velocity_amplitude_m_per_s=0.05)
+ANGLES = np.array([0.0, math.pi / 2, math.pi])  # along and across the vibration only
+
+
+def _rig(xi: float, mass: float = MASS_KG, drive_stiffness: float = 2e3,
+         va: float = VIBRATION.velocity_amplitude_m_per_s) -> RigParameters:
+    return RigParameters(mass_kg=mass, drive_stiffness_N_per_m=drive_stiffness,
+                         drive_damping_N_s_per_m=2 * math.sqrt(drive_stiffness * mass),
+                         drive_velocity_m_per_s=xi * va,
+                         vibration_frequency_Hz=VIBRATION.frequency_Hz,
+                         vibration_velocity_amplitude_m_per_s=va, normal_force_N=NORMAL_N)
+
+
+@pytest.fixture(scope="module")
+def dahl_table() -> averaged.AveragedTable:
+    return averaged.build_table(PART, VIBRATION, NORMAL_N, angle_rad=ANGLES)
+
+
+def test_coulomb_table_is_the_analytic_kinematic_limit():
+    friction = FrictionParameters(law="coulomb", friction_coefficient=0.3)
+    table = averaged.build_table(friction, VIBRATION, NORMAL_N, angle_rad=ANGLES)
+    assert np.allclose(table.along[:, 0], planar.longitudinal_coulomb_ratio(table.xi), atol=4e-3)
+    assert np.allclose(table.across[:, 1], planar.transverse_coulomb_ratio(table.xi), atol=4e-3)
+    assert np.allclose(table.along[:, 2], -table.along[:, 0])  # odd along the axis
+    assert np.all(table.along[:, 1] == pytest.approx(0, abs=1e-9))
+
+
+XIS = (0.1, 0.4, 1.0)
+
+
+@pytest.mark.parametrize("angle", (0.0, math.pi / 2), ids=("along", "across"))
+def test_averaged_matches_the_resolved_simulation(dahl_table, angle):
+    """Mean drive force of the resolved rig (dt = 10 us, the 2 kHz vibration resolved) and of
+    the averaged rig (dt = 1 ms, implicitfast, table at rest) within 3 %."""
+    cases = [(_rig(xi), PART, 0.0, angle) for xi in XIS]
+    resolved = planar.simulate_rigs(cases, duration_s=0.25, settle_time_s=0.15, timestep_s=1e-5)
+    fast = planar.simulate_rigs(cases, duration_s=0.25, settle_time_s=0.15, timestep_s=1e-3,
+                                averaged_config=dahl_table.config())
+    for xi, slow, quick in zip(XIS, resolved, fast):
+        a, b = slow.mean_drive_force_N(), quick.mean_drive_force_N()
+        assert np.linalg.norm(b - a) <= 0.03 * np.linalg.norm(a), (xi, a, b)
+        # Vibration lowers friction below mu F_N (xi < 1) along and across.
+        if xi < 1:
+            assert np.linalg.norm(a) < 0.97 * PART.friction_coefficient * NORMAL_N
+
+
+@pytest.mark.parametrize("dt", (1e-3, 2e-3))
+def test_averaged_is_stable_at_robot_timesteps(dt):
+    """A light body (20 g) on a weakly vibrating plate: the averaged law's slope at V = 0,
+    ~ mu F_N / v_a, is far above m / dt. The implicit solve keeps it stable and settles at the
+    drive velocity; the force never exceeds the table's bound."""
+    weak = averaged.Vibration(2000.0, 2e-3)
+    friction = FrictionParameters(law="coulomb", friction_coefficient=0.3)
+    table = averaged.build_table(friction, weak, NORMAL_N, angle_rad=ANGLES)
+    slope = 2 / math.pi * 0.3 * NORMAL_N / weak.velocity_amplitude_m_per_s
+    assert slope * dt / 0.02 > 4  # an explicit force would diverge (> 2)
+    cases = [(_rig(xi, mass=0.02, drive_stiffness=5e3, va=2e-3), friction, 0.0, angle)
+             for xi in (0.05, 0.5, 3.0) for angle in (0.0, math.pi / 2)]
+    runs = planar.simulate_rigs(cases, duration_s=2.0, settle_time_s=1.5, timestep_s=dt,
+                                averaged_config=table.config())
+    for (r, _, _, angle), run in zip(cases, runs):
+        assert np.all(np.isfinite(run.friction_force_N))
+        assert np.max(np.linalg.norm(run.friction_force_N, axis=1)) <= 0.3 * NORMAL_N * 1.001
+        v = run.mean(run.slider_velocity_m_per_s)
+        want = r.drive_velocity_m_per_s * np.array([math.cos(angle), math.sin(angle)])
+        assert np.allclose(v, want, rtol=0, atol=0.01 * r.drive_velocity_m_per_s)
+        tail = run.slider_velocity_m_per_s[-100:]  # settled, no oscillation
+        assert np.max(np.abs(tail - want)) < 0.02 * r.drive_velocity_m_per_s
+
+
+def test_without_vibration_it_is_coulomb_with_stick():
+    """velocity_amplitude = 0: rigid Coulomb with the planar stick solve at dt = 2 ms. While the
+    drive spring (k_d = 2 kN/m, end moving at 1 mm/s along 40 deg) pulls below mu F_N the body
+    does not move at all (no creep); past it, it slides with |F| = mu F_N."""
+    friction = FrictionParameters(law="coulomb", friction_coefficient=0.3)
+    config = {"mu": "0.3", "normal": repr(NORMAL_N)}
+    rig = _rig(1.0, va=1e-3)
+    model = planar.build_rig_spec(rig, friction, drive_angle_rad=math.radians(40),
+                                  timestep_s=2e-3, averaged_config=config).compile()
+    data = mujoco.MjData(model)
+    bound = 0.3 * NORMAL_N
+    t_break = bound / (rig.drive_stiffness_N_per_m * rig.drive_velocity_m_per_s)  # 0.29 s
+    while data.time < 0.9 * t_break:
+        mujoco.mj_step(model, data)
+        assert np.all(np.abs(data.qpos[2:4]) < 1e-9), data.time  # stuck (no creep)
+    while data.time < 0.8:
+        mujoco.mj_step(model, data)
+    friction_state = data.sensordata[2:9]  # F_x, F_y, z_x, z_y, v_x, v_y, F_N
+    assert np.linalg.norm(data.qvel[2:4]) > 0.5 * rig.drive_velocity_m_per_s
+    assert np.linalg.norm(friction_state[:2]) == pytest.approx(bound, rel=1e-9)
+    direction = friction_state[:2] / np.linalg.norm(friction_state[:2])
+    assert direction == pytest.approx([math.cos(math.radians(40)), math.sin(math.radians(40))],
+                                      abs=1e-3)
+    assert all(w.number == 0 for w in data.warning)
+
+
+def test_invalid_table_is_named(dahl_table):
+    config = dahl_table.config()
+    config["table_along"] = " ".join(config["table_along"].split()[:-1])
+    spec = planar.build_rig_spec(_rig(0.5), PART, timestep_s=1e-3, averaged_config=config)
+    with pytest.raises(ValueError, match="table_along"):
+        spec.compile()
+    config = dahl_table.config()
+    config["table_angle"] = "0 1 2"
+    spec = planar.build_rig_spec(_rig(0.5), PART, timestep_s=1e-3, averaged_config=config)
+    with pytest.raises(ValueError, match="table_angle"):
+        spec.compile()
