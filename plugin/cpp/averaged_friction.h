@@ -49,6 +49,7 @@ struct AveragedConfig {
   AveragedTable table;
   double velocity_amplitude = 0;  // v_a (m/s) the table was made for
   double axis_angle = 0;          // vibration axis, from the x transmission towards y (rad)
+  double axis_cos = 1, axis_sin = 0;
   bool use_ctrl = false;          // ctrl of the x actuator scales v_a
 
   static bool FromModel(const mjModel* m, int instance, AveragedConfig* config);

@@ -213,8 +213,10 @@ void ComputePlanarResponse(const mjModel* m, mjData* d, const int output[2],
   mjtNum* force = scratch->data();
   mjtNum* solved = force + nv;
   mjtNum* row = force + 2 * nv;
+  // qfrc_constraint still holds the previous step's constraint force (contacts, limits): with
+  // it, a part held or pushed by another body sees that push in its friction solve.
   for (int i = 0; i < nv; ++i) {
-    force[i] = d->qfrc_passive[i] - d->qfrc_bias[i] + d->qfrc_applied[i];
+    force[i] = d->qfrc_passive[i] - d->qfrc_bias[i] + d->qfrc_applied[i] + d->qfrc_constraint[i];
   }
   for (int j = 0; j < m->nout; ++j) {
     if (j == output[0] || j == output[1] || d->actuator_force[j] == 0) continue;

@@ -62,7 +62,10 @@ struct PlanarTransmission {
 
 // Response of the two transmissions to their forces over one semi-implicit Euler step:
 // v_next = v_free + B f, B = dt J M^-1 J' (row-major 2x2), every force known at this point
-// (passive, bias, applied, actuators other than these two) included in v_free.
+// (passive, bias, applied, actuators other than these two) and the previous step's constraint
+// force (contacts, limits, equalities: the current one is solved after the actuators) included
+// in v_free. In steady contact (a part pushed by a robot) the two agree and the implicit
+// friction solve is unbiased; when a contact appears or breaks the estimate lags one step.
 struct PlanarResponse {
   double v_free[2] = {0.0, 0.0};
   double B[4] = {0.0, 0.0, 0.0, 0.0};
