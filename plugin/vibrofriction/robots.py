@@ -253,6 +253,20 @@ def run_push(mode: str = "averaged", *, vibration: bool = True, plan: PushPlan |
     return run_scene(model, ctrl, state0)
 
 
+def run_feeder(*, vibration: bool = True, duration_s: float = 2.0) -> SceneRun:
+    """The vibratory feeder from rest with the vibration on or off."""
+    model = load_model("feeder")
+    nstep = int(round(duration_s / model.opt.timestep))
+    ctrl = np.zeros((nstep, model.nu))
+    for name in ("shaker_x", "shaker_z"):
+        ctrl[:, model.actuator(name).id] = 1.0 if vibration else 0.0
+    return run_scene(model, ctrl)
+
+
+FEEDER_PART_MASS_KG = 0.03
+FEEDER_PARTS = ("part0", "part1", "part2")
+
+
 # ---- Rendering -----------------------------------------------------------------------------------
 
 class RenderingUnavailable(RuntimeError):
@@ -288,8 +302,8 @@ def render_frames(run: SceneRun, times_s, *, camera: str = "overview", height: i
 
 
 __all__ = [
-    "PART_MASS_KG", "PLATE_PART_FRICTION", "PLATE_VIBRATION", "PushPlan", "RenderingUnavailable",
+    "FEEDER_PARTS", "FEEDER_PART_MASS_KG", "PART_MASS_KG", "PLATE_PART_FRICTION", "PLATE_VIBRATION", "PushPlan", "RenderingUnavailable",
     "SCENES", "SceneRun", "initial_state", "load_model", "make_renderer", "plate_push_table",
-    "push_controls", "render_frames", "run_push", "run_scene", "scara_ik", "scene_path",
+    "push_controls", "render_frames", "run_feeder", "run_push", "run_scene", "scara_ik", "scene_path",
     "table_files",
 ]
