@@ -170,9 +170,8 @@ std::unique_ptr<FrictionElement> FrictionElement::Create(const mjModel* m, int i
 }
 
 bool FrictionElement::Refresh(const mjModel* m, int instance) {
-  std::string fingerprint = ConfigFingerprint(m, instance);
-  if (fingerprint == fingerprint_) return valid_;
-  fingerprint_ = std::move(fingerprint);
+  if (ConfigUnchanged(m, instance, fingerprint_)) return valid_;
+  fingerprint_ = ConfigFingerprint(m, instance);
   valid_ = FrictionConfig::FromModel(m, instance, &config_);
   return valid_;
 }

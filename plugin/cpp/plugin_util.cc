@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 
 namespace vibrofriction {
 
@@ -30,6 +31,14 @@ std::string ConfigFingerprint(const mjModel* m, int instance) {
   const int begin = m->plugin_attradr[instance];
   const int end = instance + 1 < m->nplugin ? m->plugin_attradr[instance + 1] : m->npluginattr;
   return std::string(m->plugin_attr + begin, m->plugin_attr + end);
+}
+
+bool ConfigUnchanged(const mjModel* m, int instance, const std::string& fingerprint) {
+  const int begin = m->plugin_attradr[instance];
+  const int end = instance + 1 < m->nplugin ? m->plugin_attradr[instance + 1] : m->npluginattr;
+  const std::size_t size = static_cast<std::size_t>(end - begin);
+  return size == fingerprint.size() &&
+         std::memcmp(m->plugin_attr + begin, fingerprint.data(), size) == 0;
 }
 
 int FindActuator(const mjModel* m, int instance, const char* plugin) {

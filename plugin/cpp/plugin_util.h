@@ -19,6 +19,10 @@ bool ReadNumber(const mjModel* m, int instance, const char* plugin, const char* 
 // step one mjData with several models, so plugins compare this each step, not a model pointer.
 std::string ConfigFingerprint(const mjModel* m, int instance);
 
+// True when the instance's config bytes equal `fingerprint`; allocates nothing (called from
+// every compute/advance callback).
+bool ConfigUnchanged(const mjModel* m, int instance, const std::string& fingerprint);
+
 // The single actuator backed by `instance`, or -1 (with a warning) if none or several.
 int FindActuator(const mjModel* m, int instance, const char* plugin);
 

@@ -78,9 +78,8 @@ std::unique_ptr<SupportMotion> SupportMotion::Create(const mjModel* m, int insta
 }
 
 bool SupportMotion::Refresh(const mjModel* m, int instance) {
-  std::string fingerprint = ConfigFingerprint(m, instance);
-  if (fingerprint == fingerprint_) return valid_;
-  fingerprint_ = std::move(fingerprint);
+  if (ConfigUnchanged(m, instance, fingerprint_)) return valid_;
+  fingerprint_ = ConfigFingerprint(m, instance);
   valid_ = MotionConfig::FromModel(m, instance, &config_);
   return valid_;
 }
