@@ -1,0 +1,75 @@
+"""``vibrofriction compare-builtin``: the rig with MuJoCo's built-in friction vs the plugin."""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from ..cli import add_common_arguments, parse_overrides, write_json
+from ..params import PAPER_CONTACT_STIFFNESS_N_PER_M, FrictionParameters, ParameterError, \
+    apply_overrides
+from ..study import builtin
+from ..study.config import PAPER_RIG
+from ..study.output import StageLog
+from ..study.reproduce import comparison_config, comparison_json, study_config
+
+HELP = ("the paper's rig with MuJoCo's own friction (joint frictionloss, box-on-box contact, "
+        "dcmotor LuGre, springyield) against the plugin: master curves, traces, the timestep "
+        "each needs for 1 % in the mean drive force and its wall time")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", type=Path, default=Path("vibrofriction-results"),
+                        metavar="DIR", help="output folder (default ./vibrofriction-results)")
+    parser.add_argument("--quick", action="store_true",
+                        help="short timestep ladder and master grid")
+    parser.add_argument("--variants", default=",".join(builtin.VARIANTS), metavar="A,B,...",
+                        help="variants to run (default all): " + ", ".join(builtin.VARIANTS))
+    parser.add_argument("--ladder", default=None, metavar="N1,N2,...",
+                        help="steps per vibration period of the timestep ladder "
+                             "(dt = T/(N + 0.382)); the finest is the reference")
+    parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    add_common_arguments(parser, law=False)
+
+
+def run(args: argparse.Namespace) -> int:
+    overrides = parse_overrides(args.overrides)
+    changes = {}
+    if overrides:
+        rig, friction = apply_overrides(PAPER_RIG, FrictionParameters(
+            contact_stiffness_N_per_m=PAPER_CONTACT_STIFFNESS_N_PER_M), overrides)
+        changes.update(rig=rig, friction=friction)
+    if args.timestep is not None:
+        raise ParameterError("compare-builtin chooses its timesteps (--ladder); "
+                             "--timestep is not accepted")
+    config = study_config(args.quick, **changes)
+    names = [v.strip() for v in args.variants.split(",") if v.strip()]
+    unknown = [v for v in names if v not in builtin.VARIANTS]
+    if unknown:
+        raise ParameterError(f"unknown variant(s) {', '.join(unknown)}; use: "
+                             + ", ".join(builtin.VARIANTS))
+    # The targets are needed as references.
+    needed = list(dict.fromkeys(names + [builtin.VARIANTS[v].target for v in names]))
+    cmp_config = comparison_config(args.quick)
+    cmp_changes = {"variants": tuple(needed)}
+    if args.ladder:
+        try:
+            steps = tuple(sorted({int(x) for x in args.ladder.split(",")}))
+        except ValueError:
+            raise ParameterError(f"--ladder expects integers, got {args.ladder!r}") from None
+        if len(steps) < 2 or steps[0] < 4:
+            raise ParameterError("--ladder needs at least two values >= 4")
+        cmp_changes["ladder_steps"] = steps
+    from dataclasses import replace
+    cmp_config = replace(cmp_config, **cmp_changes)
+    log = StageLog(1, quiet=args.quiet)
+    log.stage(f"{len(needed)} variants, ladder {list(cmp_config.ladder_steps)} steps per period")
+    result = builtin.compare(config, cmp_config, progress=log.progress)
+    paths = builtin.write_comparison(result, args.out)
+    payload = comparison_json(result)
+    (Path(args.out) / "builtin.json").write_text(json.dumps(payload, indent=2) + "\n")
+    if args.json_path is not None:
+        write_json(args.json_path, payload)
+    print(builtin.comparison_table(result))
+    print(f"wrote {paths['md']}, {paths['png']} and CSV tables")
+    return 0

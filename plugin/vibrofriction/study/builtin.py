@@ -1,0 +1,559 @@
+"""The paper's rig with MuJoCo's own friction elements, beside the vibrofriction plugin.
+
+Each built-in variant is made by editing the rig scene with MjSpec: the friction plugin's
+actuator, sensor and instance are removed (the support and drive-end motion plugins stay), and
+one built-in element is added on the slider:
+
+* ``frictionloss-default`` -- joint ``frictionloss = mu F_N`` on ``slider_on_table`` with the
+  default ``solreffriction`` (0.02 s, 1);
+* ``frictionloss-tight`` -- the same with ``solreffriction="2e-6 1"`` (MuJoCo's ``refsafe``
+  raises the time constant to 2 dt);
+* ``contact-default`` / ``contact-tight`` -- box-on-box contact friction (condim 3, pyramidal
+  cone, geom friction mu): the slider box rests on the table box under gravity (9.81 m/s^2) on
+  an added vertical slide joint, an external load F_N - m g on that joint brings the normal
+  force to F_N, ``filterparent`` is disabled so the parent table and child slider collide;
+  default ``solref`` (0.02 s, 1) or ``solref="2e-6 1"``;
+* ``dcmotor-lugre`` -- a passive ``dcmotor`` (input none, motorconst 0, resistance 1) with
+  ``lugre="k_t sigma1 mu F_N mu F_N v_s"``: MuJoCo's native LuGre on the same joint;
+* ``springyield`` -- joint spring ``stiffness = k_t`` with ``springyield = mu F_N / k_t``: the
+  ideal elastic-plastic (Jenkins) contact spring.
+
+The friction force of a built-in variant is F_F = F_d - m a (the slider's equation of motion,
+eq. 2; ``a`` from the accelerometer), whose mean over whole periods equals the mean drive force.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Callable, Sequence
+
+import mujoco
+import numpy as np
+from mujoco import rollout as mj_rollout
+
+from .. import rig as rig_module
+from ..params import FrictionParameters, RigParameters
+from ..summary import RunSummary, summarize
+from .config import MM_PER_S, STATIC_TIMESTEP_S, StudyConfig, period_timestep
+from .output import new_figure, save_figure, write_csv
+from .runner import Progress
+
+GRAVITY_M_PER_S2 = 9.81
+TIGHT_SOLREF = (2e-6, 1.0)  # physics.md: frictionloss within 1 % at 1-2 us with this
+# mjINPUT_NONE (mjtCtrlInput): a dcmotor without control inputs, a purely passive device.
+_DCMOTOR_INPUT_NONE = 16
+
+
+@dataclass(frozen=True)
+class Variant:
+    """One way of putting friction into the rig."""
+
+    name: str
+    element: str  # what MuJoCo element provides the friction
+    law: str  # FrictionParameters law whose numbers it takes
+    target: str  # name of the variant that is the physically matching plugin law
+    builtin: bool
+
+
+VARIANTS: dict[str, Variant] = {v.name: v for v in (
+    Variant("plugin-coulomb", "vibrofriction.friction law=coulomb (stick solve)", "coulomb",
+            "plugin-coulomb", False),
+    Variant("plugin-dahl", "vibrofriction.friction law=dahl", "dahl", "plugin-dahl", False),
+    Variant("plugin-lugre", "vibrofriction.friction law=lugre", "lugre", "plugin-lugre", False),
+    Variant("plugin-dupont-jenkins", "vibrofriction.friction law=dupont, z_ba/z_ss = 0.99",
+            "dupont", "plugin-dupont-jenkins", False),
+    Variant("frictionloss-default", "joint frictionloss, solreffriction 0.02 1 (default)",
+            "coulomb", "plugin-coulomb", True),
+    Variant("frictionloss-tight", "joint frictionloss, solreffriction 2e-6 1", "coulomb",
+            "plugin-coulomb", True),
+    Variant("contact-default", "box-on-box contact, condim 3, solref 0.02 1 (default)",
+            "coulomb", "plugin-coulomb", True),
+    Variant("contact-tight", "box-on-box contact, condim 3, solref 2e-6 1", "coulomb",
+            "plugin-coulomb", True),
+    Variant("dcmotor-lugre", "dcmotor input=none lugre=...", "lugre", "plugin-lugre", True),
+    Variant("springyield", "joint stiffness k_t + springyield mu F_N/k_t (Jenkins)", "dupont",
+            "plugin-dupont-jenkins", True),
+)}
+BUILTIN_VARIANTS = tuple(n for n, v in VARIANTS.items() if v.builtin)
+PLUGIN_VARIANTS = tuple(n for n, v in VARIANTS.items() if not v.builtin)
+# The Jenkins element is Dupont's law with z_ba -> z_max (physics.md); 0.99 is the closest the
+# plugin allows (breakaway_ratio < 1).
+JENKINS_BREAKAWAY_RATIO = 0.99
+
+
+def variant_friction(variant: Variant, rig: RigParameters, config: StudyConfig
+                     ) -> FrictionParameters:
+    friction = config.friction_for(variant.law, rig)
+    if variant.law == "dupont":
+        friction = replace(friction, breakaway_ratio=JENKINS_BREAKAWAY_RATIO).validate()
+    return friction
+
+
+def _strip_friction_plugin(spec: mujoco.MjSpec) -> None:
+    spec.delete(spec.actuator("friction"))
+    spec.delete(spec.sensor("friction_state"))
+    for plugin in list(spec.plugins):
+        if plugin.name == "friction":
+            spec.delete(plugin)
+
+
+def build_variant_spec(name: str, rig: RigParameters, config: StudyConfig,
+                       timestep_s: float) -> mujoco.MjSpec:
+    """MjSpec of the rig with the friction of variant ``name``."""
+    variant = VARIANTS[name]
+    friction = variant_friction(variant, rig, config)
+    if not variant.builtin:
+        return rig_module.build_spec(rig, friction, timestep_s)
+    # Start from the Coulomb scene with all rig numbers applied, then swap the friction.
+    spec = rig_module.build_spec(rig, replace(friction, law="coulomb"), timestep_s)
+    _strip_friction_plugin(spec)
+    mu, fn = friction.friction_coefficient, rig.normal_force_N
+    joint = spec.joint("slider_on_table")
+    if name.startswith("frictionloss"):
+        joint.frictionloss = mu * fn
+        if name == "frictionloss-tight":
+            joint.solref_friction = list(TIGHT_SOLREF)
+    elif name.startswith("contact"):
+        _add_contact(spec, rig, mu, tight=(name == "contact-tight"))
+    elif name == "dcmotor-lugre":
+        actuator = spec.add_actuator(name="lugre", target="slider_on_table",
+                                     trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        g = mu * fn
+        error = actuator.set_to_dcmotor(
+            motorconst=[0.0, 0.0], resistance=1.0,
+            lugre=[friction.contact_stiffness_N_per_m, friction.bristle_damping_N_s_per_m, g,
+                   g * friction.static_ratio, friction.stribeck_velocity_m_per_s],
+            ctrlspec=_DCMOTOR_INPUT_NONE)
+        if error:
+            raise RuntimeError(f"dcmotor: {error}")
+        actuator.damping[0] = friction.viscous_N_s_per_m
+    elif name == "springyield":
+        joint.stiffness[0] = friction.contact_stiffness_N_per_m
+        joint.springyield = mu * fn / friction.contact_stiffness_N_per_m
+    else:  # pragma: no cover - VARIANTS and this function list the same names
+        raise KeyError(name)
+    return spec
+
+
+def _add_contact(spec: mujoco.MjSpec, rig: RigParameters, mu: float, *, tight: bool) -> None:
+    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_FILTERPARENT
+    spec.option.gravity = [0.0, 0.0, -GRAVITY_M_PER_S2]
+    slider = spec.body("slider")
+    slider.add_joint(name="slider_normal", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1],
+                     armature=0.0)
+    for geom_name in ("table", "slider"):
+        geom = spec.geom(geom_name)
+        geom.contype = 1
+        geom.conaffinity = 1
+        geom.condim = 3
+        geom.friction = [mu, 0.0, 0.0]
+        if tight:
+            geom.solref = list(TIGHT_SOLREF)
+    external = rig.normal_force_N - rig.mass_kg * GRAVITY_M_PER_S2
+    load = spec.add_actuator(name="normal_load", target="slider_normal",
+                             trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    load.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+    load.gainprm[0] = 0.0
+    load.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+    load.biasprm[:3] = [-external, 0.0, 0.0]  # constant downward force F_e = F_N - m g
+
+
+@dataclass(frozen=True)
+class VariantRun:
+    variant: str
+    rig: RigParameters
+    timestep_s: float
+    wall_s: float  # single-thread wall time of the whole run
+    summary: RunSummary
+    time_s: np.ndarray | None = None
+    friction_force_N: np.ndarray | None = None
+
+
+def _friction_series(model: mujoco.MjModel, sensordata: np.ndarray, mass_kg: float,
+                     builtin: bool) -> tuple[np.ndarray, np.ndarray]:
+    slices = rig_module._sensor_slices(model)
+    drive = sensordata[:, slices["drive_force"]][:, 0]
+    if builtin:
+        accel = sensordata[:, slices["slider_acceleration"]][:, 0]
+        return drive, drive - mass_kg * accel
+    return drive, sensordata[:, slices["friction_state"]][:, 4]
+
+
+def run_variants(requests: Sequence[tuple[str, RigParameters, float]], config: StudyConfig, *,
+                 keep_periods: int = 0, parallel: bool = True,
+                 progress: Progress | None = None) -> list[VariantRun]:
+    """Run (variant, rig, timestep) requests. parallel=False runs each on the calling thread
+    and times it (the wall times reported); parallel=True runs same-variant, same-timestep
+    requests together on rollout threads (no per-run wall time)."""
+    times = [rig_module.default_times(r, variant_friction(VARIANTS[v], r, config))
+             for v, r, _ in requests]
+    duration = max(t[0] for t in times)
+    settle = max(t[1] for t in times)
+    out: list[VariantRun | None] = [None] * len(requests)
+    groups: dict[tuple[str, float], list[int]] = {}
+    for i, (v, _, dt) in enumerate(requests):
+        groups.setdefault((v, dt) if parallel else (v, dt, i), []).append(i)
+    done = 0
+    nthread = rig_module._cpu_count()
+    for key, idx in groups.items():
+        v, dt = key[0], key[1]
+        builtin = VARIANTS[v].builtin
+        for start in range(0, len(idx), max(1, 2 * nthread)):
+            part = idx[start:start + max(1, 2 * nthread)]
+            models = [build_variant_spec(v, requests[i][1], config, dt).compile() for i in part]
+            nstep = int(round(duration / dt))
+            data = mujoco.MjData(models[0])
+            states = np.stack([rig_module._initial_state(m, data) for m in models])
+            threads = min(nthread, len(models)) if parallel and len(models) > 1 else 0
+            with mj_rollout.Rollout(nthread=threads) as pool:
+                datas = [mujoco.MjData(models[0]) for _ in range(max(1, threads))]
+                t0 = time.perf_counter()
+                _, sensordata = pool.rollout(models, datas, states, nstep=nstep)
+                wall = time.perf_counter() - t0
+            for k, i in enumerate(part):
+                r = requests[i][1]
+                drive, friction = _friction_series(models[k], sensordata[k], r.mass_kg, builtin)
+                t = np.arange(nstep) * dt
+                period = (1.0 / r.vibration_frequency_Hz
+                          if r.vibration_velocity_amplitude_m_per_s > 0 else 0.0)
+                summary = summarize(t, drive, friction, period, settle)
+                keep_t = keep_f = None
+                if keep_periods and period > 0:
+                    keep = t >= t[-1] - keep_periods * period - 0.5 * dt
+                    keep_t, keep_f = t[keep] - t[keep][0], friction[keep].copy()
+                out[i] = VariantRun(variant=v, rig=r, timestep_s=dt,
+                                    wall_s=wall if len(part) == 1 else math.nan,
+                                    summary=summary, time_s=keep_t, friction_force_N=keep_f)
+            done += len(part)
+            if progress:
+                progress(done, len(requests))
+    return [r for r in out if r is not None]
+
+
+# ----------------------------------------------------------------------------- the study
+@dataclass(frozen=True)
+class ComparisonConfig:
+    """Grids of the built-in comparison."""
+
+    variants: tuple[str, ...] = PLUGIN_VARIANTS + BUILTIN_VARIANTS
+    # Operating points of the timestep study: Fig. 8 (no sign change) and Fig. 9 (sign change).
+    operating_kappas: tuple[float, ...] = (1.5, 6.0)
+    # Steps per vibration period of the timestep ladder (dt = T / (N + 0.382)); the finest is
+    # each variant's "converged" run.
+    ladder_steps: tuple[int, ...] = (25, 50, 100, 200, 400, 800)
+    master_kappas: tuple[float, ...] = (0.5, 1.0, 1.5, 2.0, 3.0, 6.0, 12.0, 24.0)
+    master_steps: int = 200
+    tolerance: float = 0.01
+
+    @classmethod
+    def quick(cls) -> "ComparisonConfig":
+        return cls(operating_kappas=(1.5, 6.0), ladder_steps=(25, 100, 400),
+                   master_kappas=(1.0, 1.5, 6.0), master_steps=100)
+
+
+@dataclass(frozen=True)
+class LadderResult:
+    variant: str
+    kappa: float
+    steps: int
+    timestep_s: float
+    wall_s: float
+    mean_drive_force_N: float
+
+
+@dataclass(frozen=True)
+class VariantSummary:
+    """One row of the comparison table."""
+
+    variant: str
+    element: str
+    target: str
+    ratios: dict[float, float]  # kappa -> F_dv/F_ds on the master grid
+    sign_change: dict[float, bool]
+    errors_vs_target: dict[float, list[float]]  # kappa -> relative error per ladder step
+    errors_vs_own: dict[float, list[float]]
+    dt_own_s: float | None  # largest ladder dt within tolerance of its own finest run
+    dt_target_s: float | None  # ... of the target plugin law's finest run
+    wall_own_s: float | None  # single-thread wall time of one run at dt_own_s (max over kappas)
+    wall_target_s: float | None
+
+    def row(self) -> dict[str, object]:
+        return {"variant": self.variant, "element": self.element, "target": self.target,
+                "dt_own_s": self.dt_own_s, "dt_target_s": self.dt_target_s,
+                "wall_own_s": self.wall_own_s, "wall_target_s": self.wall_target_s,
+                **{f"ratio_kappa_{k:g}": v for k, v in self.ratios.items()}}
+
+
+@dataclass(frozen=True)
+class Comparison:
+    config: ComparisonConfig
+    ladder: list[LadderResult]
+    master: list[VariantRun]
+    static: dict[str, float]
+    traces: list[VariantRun]
+    rows: list[VariantSummary]
+    frequency_Hz: float
+    duration_s: float
+
+
+def _required(errors: Sequence[float], dts: Sequence[float], tol: float, *,
+              skip_last: bool) -> float | None:
+    """Largest dt (ladder coarse -> fine) from which on every finer dt is within ``tol``;
+    ``skip_last``: the finest run is the reference itself and proves nothing."""
+    best = None
+    last = len(dts) - (2 if skip_last else 1)
+    for i in range(last, -1, -1):
+        if errors[i] > tol:
+            break
+        best = dts[i]
+    return best
+
+
+def compare(config: StudyConfig, comparison: ComparisonConfig, *,
+            progress: Callable[[str], Progress | None] | None = None) -> Comparison:
+    """Ladder, master curves and traces for every variant (see the module docstring)."""
+    base = config.rig
+    f = base.vibration_frequency_Hz
+    prog = progress or (lambda label: None)
+    # 1. Timestep ladder at the operating points, one run at a time (timed).
+    requests = []
+    for v in comparison.variants:
+        for kappa in comparison.operating_kappas:
+            r = replace(base, vibration_velocity_amplitude_m_per_s=kappa
+                        * base.drive_velocity_m_per_s)
+            for n in comparison.ladder_steps:
+                requests.append((v, r, period_timestep(f, n)))
+    runs = run_variants(requests, config, parallel=False, progress=prog("timestep ladder"))
+    ladder = []
+    for (v, r, dt), run in zip(requests, runs):
+        ladder.append(LadderResult(variant=v, kappa=r.kappa, steps=int(round(
+            1 / (f * dt))), timestep_s=dt, wall_s=run.wall_s,
+            mean_drive_force_N=run.summary.mean_drive_force_N))
+    # 2. Master curves at a common fine step, and the static runs (F_d-s).
+    master_dt = period_timestep(f, comparison.master_steps)
+    master_requests = []
+    for v in comparison.variants:
+        for kappa in comparison.master_kappas:
+            master_requests.append((v, replace(base, vibration_velocity_amplitude_m_per_s=kappa
+                                               * base.drive_velocity_m_per_s), master_dt))
+    static_requests = [(v, replace(base, vibration_velocity_amplitude_m_per_s=0.0),
+                        STATIC_TIMESTEP_S if not VARIANTS[v].builtin else master_dt)
+                       for v in comparison.variants]
+    master = run_variants(master_requests, config, parallel=True,
+                          progress=prog("master curves"))
+    static_runs = run_variants(static_requests, config, parallel=True)
+    static = {run.variant: run.summary.mean_drive_force_N for run in static_runs}
+    # 3. Traces at the operating points.
+    trace_requests = [(v, replace(base, vibration_velocity_amplitude_m_per_s=kappa
+                                  * base.drive_velocity_m_per_s), master_dt)
+                      for v in comparison.variants for kappa in comparison.operating_kappas]
+    traces = run_variants(trace_requests, config, parallel=True, keep_periods=2,
+                          progress=prog("traces"))
+    rows = _summaries(comparison, ladder, master, static)
+    duration = rig_module.default_times(base, config.friction_for("coulomb", base))[0]
+    return Comparison(config=comparison, ladder=ladder, master=master, static=static,
+                      traces=traces, rows=rows, frequency_Hz=f, duration_s=duration)
+
+
+def _summaries(comparison: ComparisonConfig, ladder: Sequence[LadderResult],
+               master: Sequence[VariantRun], static: dict[str, float]) -> list[VariantSummary]:
+    tol = comparison.tolerance
+    rows = []
+    for v in comparison.variants:
+        variant = VARIANTS[v]
+        errs_own: dict[float, list[float]] = {}
+        errs_target: dict[float, list[float]] = {}
+        walls: dict[float, list[float]] = {}
+        dts: list[float] = []
+        for kappa in comparison.operating_kappas:
+            mine = [x for x in ladder if x.variant == v and math.isclose(x.kappa, kappa)]
+            mine.sort(key=lambda x: -x.timestep_s)
+            dts = [x.timestep_s for x in mine]
+            own_ref = mine[-1].mean_drive_force_N
+            target = [x for x in ladder if x.variant == variant.target
+                      and math.isclose(x.kappa, kappa)]
+            target_ref = min(target, key=lambda x: x.timestep_s).mean_drive_force_N
+            errs_own[kappa] = [abs(x.mean_drive_force_N / own_ref - 1) for x in mine]
+            errs_target[kappa] = [abs(x.mean_drive_force_N / target_ref - 1) for x in mine]
+            walls[kappa] = [x.wall_s for x in mine]
+        worst_own = [max(errs_own[k][i] for k in errs_own) for i in range(len(dts))]
+        worst_target = [max(errs_target[k][i] for k in errs_target) for i in range(len(dts))]
+        dt_own = _required(worst_own, dts, tol, skip_last=True)
+        is_target = variant.target == v
+        dt_target = dt_own if is_target else _required(worst_target, dts, tol,
+                                                       skip_last=False)
+
+        def wall_at(dt):
+            if dt is None:
+                return None
+            i = dts.index(dt)
+            return max(walls[k][i] for k in walls)
+        ratios = {}
+        signs = {}
+        for run in master:
+            if run.variant == v:
+                ratios[run.rig.kappa] = run.summary.mean_drive_force_N / static[v]
+                signs[run.rig.kappa] = run.summary.sign_change
+        rows.append(VariantSummary(
+            variant=v, element=variant.element, target=variant.target, ratios=ratios,
+            sign_change=signs, errors_vs_target=errs_target, errors_vs_own=errs_own,
+            dt_own_s=dt_own, dt_target_s=dt_target, wall_own_s=wall_at(dt_own),
+            wall_target_s=wall_at(dt_target)))
+    return rows
+
+
+# ----------------------------------------------------------------------------- outputs
+VARIANT_STYLE = {
+    "plugin-coulomb": dict(color="k", lw=1.6),
+    "plugin-dahl": dict(color="tab:blue", lw=1.6),
+    "plugin-lugre": dict(color="tab:orange", lw=1.6),
+    "plugin-dupont-jenkins": dict(color="tab:green", lw=1.6),
+    "frictionloss-default": dict(color="tab:red", lw=1, ls="--"),
+    "frictionloss-tight": dict(color="tab:red", lw=1, ls="-", marker="s", ms=3),
+    "contact-default": dict(color="tab:purple", lw=1, ls="--"),
+    "contact-tight": dict(color="tab:purple", lw=1, ls="-", marker="^", ms=3),
+    "dcmotor-lugre": dict(color="tab:brown", lw=1, ls="-", marker="o", ms=3),
+    "springyield": dict(color="tab:olive", lw=1, ls="-", marker="d", ms=3),
+}
+
+
+def plot_comparison(result: Comparison, path: Path) -> Path:
+    fig = new_figure(9.0, 6.4)
+    grid = fig.subplots(2, 2)
+    ax = grid[0, 0]
+    for row in result.rows:
+        ks = sorted(row.ratios)
+        ax.plot(ks, [max(row.ratios[k], 1e-4) for k in ks], label=row.variant,
+                **VARIANT_STYLE[row.variant])
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_ylim(3e-3, 1.5)
+    ax.set_xlabel(r"$\kappa_v$")
+    ax.set_ylabel(r"$F_{d\text{-}v}/F_{d\text{-}s}$")
+    ax.set_title(f"(a) master curves, dt = T/{result.config.master_steps}.4", fontsize=9)
+    ax.grid(True, which="both", lw=0.3, alpha=0.5)
+    ax.legend(fontsize=5.5, ncol=2, loc="lower left")
+    for ax, kappa, letter in zip((grid[0, 1], grid[1, 0]), result.config.operating_kappas, "bc"):
+        for run in result.traces:
+            if math.isclose(run.rig.kappa, kappa) and run.time_s is not None:
+                style = dict(VARIANT_STYLE[run.variant])
+                style.pop("marker", None)
+                style.pop("ms", None)
+                ax.plot(run.time_s * result.frequency_Hz, run.friction_force_N, **style,
+                        label=run.variant)
+        ax.axhline(0, color="0.7", lw=0.5)
+        ax.set_xlabel("t / T")
+        ax.set_ylabel(r"$F_F$ (N)")
+        va = kappa * result.traces[0].rig.drive_velocity_m_per_s / MM_PER_S
+        ax.set_title(f"({letter}) F_F at kappa_v = {kappa:g} (v_a = {va:g} mm/s)", fontsize=9)
+    ax = grid[1, 1]
+    for row in result.rows:
+        dts = sorted({x.timestep_s for x in result.ladder if x.variant == row.variant},
+                     reverse=True)
+        worst = [max(row.errors_vs_target[k][i] for k in row.errors_vs_target)
+                 for i in range(len(dts))]
+        style = dict(VARIANT_STYLE[row.variant])
+        ax.plot(np.array(dts) * 1e6, np.maximum(worst, 1e-5) * 100, **style, label=row.variant)
+    ax.axhline(result.config.tolerance * 100, color="0.5", lw=0.8, ls=":")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.invert_xaxis()
+    ax.set_xlabel("timestep (µs)")
+    ax.set_ylabel("error of mean F_d vs target (%)")
+    ax.set_title("(d) timestep convergence (worst of the operating points)", fontsize=9)
+    ax.grid(True, which="both", lw=0.3, alpha=0.5)
+    fig.suptitle("The rig with MuJoCo's built-in friction vs the vibrofriction plugin "
+                 f"(f = {result.frequency_Hz:g} Hz)", fontsize=10)
+    return save_figure(fig, path)
+
+
+def _us(dt: float | None) -> str:
+    return "not reached" if dt is None else f"{dt * 1e6:.3g} µs"
+
+
+def _s(wall: float | None) -> str:
+    return "—" if wall is None or math.isnan(wall) else f"{wall:.2f} s"
+
+
+def comparison_table(result: Comparison) -> str:
+    """Markdown table of the comparison (README-ready)."""
+    ks = list(result.config.master_kappas)
+    shown = [k for k in (1.5, 6.0, 24.0) if k in ks] or ks[:3]
+    coarse = result.config.ladder_steps[0]
+    head = ("| variant | MuJoCo element | target | "
+            + " | ".join(f"F_dv/F_ds κ={k:g}" for k in shown)
+            + f" | error vs target at T/{coarse} | dt for 1 % (own) | dt for 1 % (target) | "
+            "wall per run at that dt |")
+    sep = "|" + "---|" * (6 + len(shown))
+    lines = [head, sep]
+    for row in result.rows:
+        worst_coarse = max(row.errors_vs_target[k][0] for k in row.errors_vs_target)
+        wall = row.wall_target_s if row.dt_target_s is not None else row.wall_own_s
+        wall_note = "" if row.dt_target_s is not None or row.dt_own_s is None else " (own)"
+        ratios = " | ".join(
+            f"{row.ratios.get(k, math.nan):.4f}" + (" ±" if row.sign_change.get(k) else "")
+            for k in shown)
+        lines.append(
+            f"| {row.variant} | {row.element} | {row.target} | {ratios} | "
+            f"{worst_coarse * 100:.2g} % | {_us(row.dt_own_s)} | {_us(row.dt_target_s)} | "
+            f"{_s(wall)}{wall_note} |")
+    return "\n".join(lines)
+
+
+def write_comparison(result: Comparison, out: Path) -> dict[str, Path]:
+    out = Path(out)
+    paths = {}
+    paths["png"] = plot_comparison(result, out / "builtin_comparison.png")
+    paths["table_csv"] = write_csv(out / "builtin_table.csv",
+                                   rows=[r.row() for r in result.rows])
+    paths["ladder_csv"] = write_csv(out / "builtin_timestep_ladder.csv", rows=[
+        {"variant": x.variant, "kappa": x.kappa, "steps_per_period": x.steps,
+         "timestep_s": x.timestep_s, "wall_s": x.wall_s,
+         "mean_drive_force_N": x.mean_drive_force_N} for x in result.ladder])
+    paths["master_csv"] = write_csv(out / "builtin_master.csv", rows=[
+        {"variant": r.variant, "kappa": r.rig.kappa, "timestep_s": r.timestep_s,
+         "mean_drive_force_N": r.summary.mean_drive_force_N,
+         "static_drive_force_N": result.static[r.variant],
+         "ratio": r.summary.mean_drive_force_N / result.static[r.variant],
+         "friction_min_N": r.summary.friction_min_N, "friction_max_N": r.summary.friction_max_N,
+         "sign_change": r.summary.sign_change} for r in result.master])
+    rows = []
+    for run in result.traces:
+        for t, ff in zip(run.time_s, run.friction_force_N):
+            rows.append({"variant": run.variant, "kappa": run.rig.kappa, "time_s": float(t),
+                         "friction_force_N": float(ff)})
+    paths["traces_csv"] = write_csv(out / "builtin_traces.csv", rows=rows)
+    paths["md"] = out / "builtin.md"
+    paths["md"].write_text(comparison_markdown(result))
+    return paths
+
+
+def comparison_markdown(result: Comparison) -> str:
+    c = result.config
+    f = result.frequency_Hz
+    ladder = ", ".join(f"{period_timestep(f, n) * 1e6:.3g}" for n in c.ladder_steps)
+    return f"""# MuJoCo's built-in friction in the paper's rig
+
+The rig of Figs. 7-12 (f = {f:g} Hz, v_d = 0.5 mm/s, F_N = 55.2 N, mu = 0.2, k_t = 80 N/um,
+k_d = 1e6 N/m) with each friction element in turn. F_dv/F_ds on the master grid is at
+dt = T/({c.master_steps} + 0.382); "±" marks a friction force that changes sign.
+
+Timestep study: mean drive force over whole periods at kappa_v = {', '.join(f'{k:g}' for k in
+c.operating_kappas)} on the ladder dt = {ladder} µs (T/(N + 0.382), N = {', '.join(str(n) for n
+in c.ladder_steps)}). The error is |F_d(dt) - F_ref| / F_ref, the worst of the operating
+points. **own**: F_ref is the variant's own run at the finest dt (does it converge?);
+**target**: F_ref is the finest run of the plugin law it models (Coulomb for frictionloss
+and contact, LuGre for dcmotor, Dupont with z_ba/z_ss = 0.99 = Jenkins for springyield) --
+does it converge to the right answer? "dt for 1 %" is the largest ladder step from which on
+every finer step stays within {c.tolerance * 100:g} %; the wall time is one single-thread run
+of {result.duration_s * 1e3:.0f} ms of simulated time at that step.
+
+{comparison_table(result)}
+"""
+
+
+__all__ = ["Variant", "VARIANTS", "BUILTIN_VARIANTS", "PLUGIN_VARIANTS", "build_variant_spec",
+           "run_variants", "VariantRun", "ComparisonConfig", "Comparison", "compare",
+           "comparison_table", "comparison_markdown", "write_comparison", "plot_comparison"]

@@ -1,0 +1,250 @@
+"""Large parameter sweeps of the rig: a grid over v_a x f x k_t x F_N.
+
+Runs locally on MuJoCo's rollout threads by default; with ``scheduler="HOST:PORT"`` (or a
+``dask.distributed.Client``) the same chunks go to an existing Dask cluster. Dask is an
+optional extra (``pip install vibrofriction[dask]``) and is imported only then.
+
+Both paths run identical chunks with one shared duration and averaging window, and each case's
+result depends only on its own parameters, so a distributed sweep returns the same numbers as
+the local one.
+"""
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from dataclasses import dataclass, replace
+from typing import Any, Sequence
+
+from ..errors import InputError
+from ..params import FrictionParameters, RigParameters
+from .config import STATIC_TIMESTEP_S, StudyConfig, friction_for, study_timestep
+from .runner import Case, Progress, run_points, shared_times
+
+# Cases per task: large enough to keep rollout threads busy, small enough to spread work.
+DEFAULT_CHUNK_SIZE = 8
+
+
+class DaskUnavailable(InputError):
+    """--scheduler was given but dask.distributed is not installed."""
+
+
+@dataclass(frozen=True)
+class SweepGrid:
+    """The grid: every combination of the four axes (v_a as kappa_v = v_a / v_d)."""
+
+    kappas: tuple[float, ...]
+    vibration_frequencies_Hz: tuple[float, ...]
+    contact_stiffnesses_N_per_m: tuple[float, ...]
+    normal_forces_N: tuple[float, ...]
+    law: str = "dahl"
+
+    @classmethod
+    def from_config(cls, config: StudyConfig, law: str = "dahl") -> "SweepGrid":
+        return cls(kappas=tuple(config.sweep_kappas),
+                   vibration_frequencies_Hz=tuple(config.sweep_frequencies_Hz),
+                   contact_stiffnesses_N_per_m=tuple(config.sweep_stiffnesses_N_per_m),
+                   normal_forces_N=tuple(config.sweep_normal_forces_N), law=law)
+
+    @property
+    def size(self) -> int:
+        return (len(self.kappas) * len(self.vibration_frequencies_Hz)
+                * len(self.contact_stiffnesses_N_per_m) * len(self.normal_forces_N))
+
+
+@dataclass(frozen=True)
+class SweepTask:
+    """One chunk of work: cases with one timestep, duration and window (picklable)."""
+
+    indices: tuple[int, ...]
+    cases: tuple[Case, ...]
+    timestep_s: float
+    duration_s: float
+    settle_time_s: float
+
+
+@dataclass(frozen=True)
+class SweepRecord:
+    kappa: float
+    vibration_velocity_amplitude_m_per_s: float
+    vibration_frequency_Hz: float
+    contact_stiffness_N_per_m: float
+    normal_force_N: float
+    friction_coefficient: float
+    timestep_s: float
+    mean_drive_force_N: float
+    static_drive_force_N: float
+    friction_min_N: float
+    friction_max_N: float
+    sign_change: bool
+
+    @property
+    def ratio(self) -> float:
+        return self.mean_drive_force_N / self.static_drive_force_N
+
+    def row(self) -> dict[str, object]:
+        out = {k: getattr(self, k) for k in self.__dataclass_fields__}
+        out["ratio"] = self.ratio
+        return out
+
+
+@dataclass(frozen=True)
+class SweepResult:
+    grid: SweepGrid
+    records: list[SweepRecord]
+    engine: str
+    wall_s: float
+
+
+def grid_cases(grid: SweepGrid, config: StudyConfig) -> tuple[list[Case], list[Case]]:
+    """(vibrating cases, static cases): the static rig of each (f, k_t, F_N) once."""
+    cases: list[Case] = []
+    statics: list[Case] = []
+    for f, kt, fn in itertools.product(grid.vibration_frequencies_Hz,
+                                       grid.contact_stiffnesses_N_per_m, grid.normal_forces_N):
+        base = replace(config.rig, vibration_frequency_Hz=f, normal_force_N=fn,
+                       vibration_velocity_amplitude_m_per_s=0.0).validate()
+        friction = friction_for(grid.law, base, contact_stiffness_N_per_m=kt,
+                                base=config.friction)
+        statics.append((base, friction))
+        for kappa in grid.kappas:
+            r = replace(base, vibration_velocity_amplitude_m_per_s=kappa
+                        * base.drive_velocity_m_per_s).validate()
+            cases.append((r, friction))
+    return cases, statics
+
+
+def make_tasks(cases: Sequence[Case], config: StudyConfig, *, chunk_size: int,
+               static: bool = False) -> list[SweepTask]:
+    """Chunks of cases sharing a timestep, with the sweep's one duration and window."""
+    duration, settle = shared_times(cases)
+    dts = [STATIC_TIMESTEP_S if static else config.timestep(r) for r, _ in cases]
+    tasks: list[SweepTask] = []
+    for dt in sorted(set(dts), reverse=True):
+        idx = [i for i, d in enumerate(dts) if d == dt]
+        for start in range(0, len(idx), chunk_size):
+            part = tuple(idx[start:start + chunk_size])
+            tasks.append(SweepTask(indices=part, cases=tuple(cases[i] for i in part),
+                                   timestep_s=dt, duration_s=duration, settle_time_s=settle))
+    return tasks
+
+
+def run_task(task: SweepTask) -> list[tuple[int, float, float, float, float, bool]]:
+    """Run one chunk (also on a Dask worker): (index, dt, mean F_d, F_min, F_max, sign)."""
+    config = StudyConfig(timestep_s=task.timestep_s)
+    points = run_points(list(task.cases), config, timesteps=[task.timestep_s] * len(task.cases),
+                        times=(task.duration_s, task.settle_time_s))
+    return [(i, p.timestep_s, p.summary.mean_drive_force_N, p.summary.friction_min_N,
+             p.summary.friction_max_N, p.summary.sign_change)
+            for i, p in zip(task.indices, points)]
+
+
+def _run_local(tasks: Sequence[SweepTask], progress: Progress | None) -> list:
+    out = []
+    total = sum(len(t.indices) for t in tasks)
+    for task in tasks:
+        out += run_task(task)
+        if progress:
+            progress(len(out), total)
+    return out
+
+
+def _run_dask(tasks: Sequence[SweepTask], scheduler: Any, progress: Progress | None) -> list:
+    try:
+        from dask.distributed import Client, as_completed
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise DaskUnavailable(
+            "--scheduler needs dask.distributed; install the extra: pip install "
+            "'vibrofriction[dask]' (or pip install 'dask[distributed]')") from exc
+    own_client = not isinstance(scheduler, Client)
+    client = Client(scheduler) if own_client else scheduler
+    try:
+        futures = client.map(run_task, list(tasks), pure=False)
+        out = []
+        total = sum(len(t.indices) for t in tasks)
+        for future in as_completed(futures):
+            out += future.result()
+            if progress:
+                progress(len(out), total)
+        return out
+    finally:
+        if own_client:
+            client.close()
+
+
+def run_sweep(grid: SweepGrid, config: StudyConfig, *, scheduler: Any = None,
+              chunk_size: int = DEFAULT_CHUNK_SIZE, progress: Progress | None = None
+              ) -> SweepResult:
+    """Run the grid (and its static runs); local unless ``scheduler`` is given."""
+    if grid.size == 0:
+        raise InputError("the sweep grid is empty")
+    cases, statics = grid_cases(grid, config)
+    tasks = make_tasks(cases, config, chunk_size=chunk_size)
+    static_tasks = make_tasks(statics, config, chunk_size=chunk_size, static=True)
+    start = time.perf_counter()
+    if scheduler is None:
+        raw = _run_local(tasks, progress)
+        raw_static = _run_local(static_tasks, None)
+        engine = "local rollout threads"
+    else:
+        raw = _run_dask(tasks, scheduler, progress)
+        raw_static = _run_dask(static_tasks, scheduler, None)
+        engine = f"dask ({scheduler if isinstance(scheduler, str) else 'client'})"
+    wall = time.perf_counter() - start
+    by_index = {row[0]: row for row in raw}
+    static_force = {row[0]: row[2] for row in raw_static}
+    per_static = len(grid.kappas)
+    records = []
+    for i, (r, f) in enumerate(cases):
+        _, dt, mean, fmin, fmax, sign = by_index[i]
+        records.append(SweepRecord(
+            kappa=r.kappa, vibration_velocity_amplitude_m_per_s=r.vibration_velocity_amplitude_m_per_s,
+            vibration_frequency_Hz=r.vibration_frequency_Hz,
+            contact_stiffness_N_per_m=f.contact_stiffness_N_per_m,
+            normal_force_N=r.normal_force_N, friction_coefficient=f.friction_coefficient,
+            timestep_s=dt, mean_drive_force_N=mean,
+            static_drive_force_N=static_force[i // per_static], friction_min_N=fmin,
+            friction_max_N=fmax, sign_change=bool(sign)))
+    return SweepResult(grid=grid, records=records, engine=engine, wall_s=wall)
+
+
+def plot_sweep(result: SweepResult, path, *, title: str | None = None):
+    """Ratio against kappa_v for every (f, k_t, F_N), coloured by the amplitude ratio
+    epsilon = k_t u0 / (mu F_N) at kappa_v = 1 (vibration amplitude over pre-slip length)."""
+    from .output import new_figure, save_figure
+    import matplotlib
+    fig = new_figure(6.4, 4.0)
+    ax = fig.subplots()
+    groups: dict[tuple, list[SweepRecord]] = {}
+    for rec in result.records:
+        groups.setdefault((rec.vibration_frequency_Hz, rec.contact_stiffness_N_per_m,
+                           rec.normal_force_N), []).append(rec)
+    eps = {}
+    for key, recs in groups.items():
+        f, kt, fn = key
+        vd = recs[0].vibration_velocity_amplitude_m_per_s / recs[0].kappa
+        u0 = vd / (2 * math.pi * f)
+        eps[key] = kt * u0 / (recs[0].friction_coefficient * fn)
+    lo, hi = min(eps.values()), max(eps.values())
+    cmap = matplotlib.colormaps["viridis"]
+    norm = matplotlib.colors.LogNorm(vmin=lo, vmax=hi if hi > lo else lo * 1.01)
+    for key, recs in groups.items():
+        recs = sorted(recs, key=lambda r: r.kappa)
+        ax.plot([r.kappa for r in recs], [r.ratio for r in recs], "o-", ms=2.5, lw=0.8,
+                color=cmap(norm(eps[key])))
+    sm = matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap)
+    fig.colorbar(sm, ax=ax, label=r"$\varepsilon_1 = k_t v_d / (2\pi f\,\mu F_N)$")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(r"$\kappa_v$")
+    ax.set_ylabel(r"$F_{d\text{-}v}/F_{d\text{-}s}$")
+    ax.axvline(1, color="0.8", lw=0.8)
+    ax.grid(True, which="both", lw=0.3, alpha=0.5)
+    ax.set_title(title or (f"{result.grid.law}: grid of {len(result.records)} runs over "
+                           "v_a x f x k_t x F_N"), fontsize=9)
+    return save_figure(fig, path)
+
+
+__all__ = ["SweepGrid", "SweepTask", "SweepRecord", "SweepResult", "grid_cases", "make_tasks",
+           "run_task", "run_sweep", "plot_sweep", "DaskUnavailable", "DEFAULT_CHUNK_SIZE",
+           "study_timestep"]
