@@ -235,10 +235,20 @@ std::unique_ptr<AveragedFriction> AveragedFriction::Create(const mjModel* m, int
       new AveragedFriction(config, ConfigFingerprint(m, instance)));
 }
 
-bool AveragedFriction::Refresh(const mjModel* m, int instance) {
-  std::string fingerprint = ConfigFingerprint(m, instance);
-  if (fingerprint == fingerprint_) return valid_;
-  fingerprint_ = std::move(fingerprint);
+bool AveragedFriction::Refresh(const mjModel* m, int instance, bool compare) {
+  // The config is compared byte for byte once a step (in Compute, the first callback of a
+  // step), in place: the averaged table makes it kilobytes long. Within a step the model
+  // cannot change, so the sensor and advance callbacks only check the model pointer.
+  if (!compare && m == model_) return valid_;
+  model_ = m;
+  const int begin = m->plugin_attradr[instance];
+  const int end = instance + 1 < m->nplugin ? m->plugin_attradr[instance + 1] : m->npluginattr;
+  const size_t size = static_cast<size_t>(end - begin);
+  if (size == fingerprint_.size() &&
+      std::memcmp(m->plugin_attr + begin, fingerprint_.data(), size) == 0) {
+    return valid_;
+  }
+  fingerprint_.assign(m->plugin_attr + begin, m->plugin_attr + end);
   valid_ = AveragedConfig::FromModel(m, instance, &config_);
   return valid_;
 }
@@ -260,7 +270,7 @@ void AveragedFriction::Force(const double u[2], double normal_force, double velo
 
 void AveragedFriction::Compute(const mjModel* m, mjData* d, int instance) {
   const int* out = config_.transmission.output;
-  if (!Refresh(m, instance)) {
+  if (!Refresh(m, instance, /*compare=*/true)) {
     if (out[0] >= 0) d->actuator_force[out[0]] = 0;
     if (out[1] >= 0) d->actuator_force[out[1]] = 0;
     return;
@@ -294,7 +304,7 @@ void AveragedFriction::ComputeSensor(const mjModel* m, mjData* d, int instance) 
     if (m->sensor_plugin[s] != instance) continue;
     mjtNum* sensor = d->sensordata + m->sensor_adr[s];
     mju_zero(sensor, kSensorDim);
-    if (!Refresh(m, instance)) continue;
+    if (!Refresh(m, instance, /*compare=*/false)) continue;
     const int* out = config_.transmission.output;
     sensor[0] = -d->actuator_force[out[0]];
     sensor[1] = -d->actuator_force[out[1]];
@@ -305,7 +315,7 @@ void AveragedFriction::ComputeSensor(const mjModel* m, mjData* d, int instance) 
 }
 
 void AveragedFriction::Advance(const mjModel* m, mjData* d, int instance) {
-  if (!Refresh(m, instance)) return;
+  if (!Refresh(m, instance, /*compare=*/false)) return;
   config_.normal.Update(m, d, d->plugin_state + m->plugin_stateadr[instance]);
 }
 

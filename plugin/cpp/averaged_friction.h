@@ -73,10 +73,12 @@ class AveragedFriction {
 
  private:
   AveragedFriction(AveragedConfig config, std::string fingerprint);
-  bool Refresh(const mjModel* m, int instance);
+  // Re-reads the config when stepped with a model whose attributes differ from the cached ones.
+  bool Refresh(const mjModel* m, int instance, bool compare);
 
   AveragedConfig config_;
   std::string fingerprint_;
+  const mjModel* model_ = nullptr;  // last model seen (compared, never dereferenced later)
   bool valid_ = true;
   std::vector<mjtNum> scratch_;
 };

@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <cstdlib>
 #include <utility>
 
@@ -358,10 +359,20 @@ std::unique_ptr<PlanarFriction> PlanarFriction::Create(const mjModel* m, int ins
       new PlanarFriction(config, ConfigFingerprint(m, instance)));
 }
 
-bool PlanarFriction::Refresh(const mjModel* m, int instance) {
-  std::string fingerprint = ConfigFingerprint(m, instance);
-  if (fingerprint == fingerprint_) return valid_;
-  fingerprint_ = std::move(fingerprint);
+bool PlanarFriction::Refresh(const mjModel* m, int instance, bool compare) {
+  // The config is compared byte for byte once a step (in Compute, the first callback of a
+  // step), in place: the averaged table makes it kilobytes long. Within a step the model
+  // cannot change, so the sensor and advance callbacks only check the model pointer.
+  if (!compare && m == model_) return valid_;
+  model_ = m;
+  const int begin = m->plugin_attradr[instance];
+  const int end = instance + 1 < m->nplugin ? m->plugin_attradr[instance + 1] : m->npluginattr;
+  const size_t size = static_cast<size_t>(end - begin);
+  if (size == fingerprint_.size() &&
+      std::memcmp(m->plugin_attr + begin, fingerprint_.data(), size) == 0) {
+    return valid_;
+  }
+  fingerprint_.assign(m->plugin_attr + begin, m->plugin_attr + end);
   valid_ = PlanarConfig::FromModel(m, instance, &config_);
   return valid_;
 }
@@ -375,7 +386,7 @@ LawInput PlanarFriction::Input(const mjModel* m, const mjData* d, int instance) 
 
 void PlanarFriction::Compute(const mjModel* m, mjData* d, int instance) {
   const int* out = config_.transmission.output;
-  if (!Refresh(m, instance)) {
+  if (!Refresh(m, instance, /*compare=*/true)) {
     if (out[0] >= 0) d->actuator_force[out[0]] = 0;
     if (out[1] >= 0) d->actuator_force[out[1]] = 0;
     return;
@@ -401,7 +412,7 @@ void PlanarFriction::ComputeSensor(const mjModel* m, mjData* d, int instance) {
   for (int s = 0; s < m->nsensor; ++s) {
     if (m->sensor_plugin[s] != instance) continue;
     mjtNum* sensor = d->sensordata + m->sensor_adr[s];
-    if (!Refresh(m, instance)) {
+    if (!Refresh(m, instance, /*compare=*/false)) {
       mju_zero(sensor, kSensorDim);
       continue;
     }
@@ -420,7 +431,7 @@ void PlanarFriction::ComputeSensor(const mjModel* m, mjData* d, int instance) {
 }
 
 void PlanarFriction::Advance(const mjModel* m, mjData* d, int instance) {
-  if (!Refresh(m, instance)) return;
+  if (!Refresh(m, instance, /*compare=*/false)) return;
   // This step's contacts give the normal load of the next step (and of this z update, as the
   // sensor input does in vibrofriction.friction).
   config_.normal.Update(m, d, d->plugin_state + m->plugin_stateadr[instance]);

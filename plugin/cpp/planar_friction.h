@@ -100,11 +100,13 @@ class PlanarFriction {
 
  private:
   PlanarFriction(PlanarConfig config, std::string fingerprint);
-  bool Refresh(const mjModel* m, int instance);
+  // Re-reads the config when stepped with a model whose attributes differ from the cached ones.
+  bool Refresh(const mjModel* m, int instance, bool compare);
   LawInput Input(const mjModel* m, const mjData* d, int instance) const;
 
   PlanarConfig config_;
   std::string fingerprint_;
+  const mjModel* model_ = nullptr;  // last model seen (compared, never dereferenced later)
   bool valid_ = true;
   std::vector<mjtNum> scratch_;
 };
