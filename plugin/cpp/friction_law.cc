@@ -119,7 +119,7 @@ double DeflectionRate(const LawParameters& p, const LawInput& in, double z) {
       const double z_c = CoulombLevel(p, in, s) / p.contact_stiffness;
       if (z_c <= 0) return 0.0;
       const double w = 1.0 - s * z / z_c;
-      // alpha = 1 (the usual value) without pow: same result, a third of the step's law cost
+      // alpha = 1 (the usual value) without pow: the same result, cheaper
       const double base = p.alpha == 1.0 ? std::fabs(w) : std::pow(std::fabs(w), p.alpha);
       return v * Sign(w) * base;
     }
