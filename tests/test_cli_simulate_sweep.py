@@ -93,6 +93,15 @@ def test_sweep_runs_every_law_with_overrides(tmp_path):
         0.2 * (8e7 * 0.4) ** 0.5)
 
 
+def test_sweep_with_more_threads_than_runs(tmp_path):
+    out = tmp_path / "sweep.json"
+    assert main(["sweep", "--va", "3e-3", "--threads", "3", "--json", str(out), *SHORT]) == 0
+    one_thread = tmp_path / "one.json"
+    assert main(["sweep", "--va", "3e-3", "--threads", "1", "--json", str(one_thread),
+                 *SHORT]) == 0
+    assert json.loads(out.read_text()) == json.loads(one_thread.read_text())
+
+
 BAD_INPUT = [
     (["simulate", "--set", "mass=1"], "unknown parameter 'mass'"),
     (["simulate", "--set", "mass_kg=nan"], "mass_kg"),
