@@ -1,0 +1,153 @@
+"""The robot scenes (mjcf_models/robots/): every scene loads and steps without MuJoCo warnings;
+the plate push at the robot's timestep matches the resolved scene and is stable at 1-2 ms; the
+averaged table file is the one the resolved law gives; the feeder conveys only with vibration;
+offscreen rendering works where a GL context can be made."""
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from vibrofriction import robots
+from vibrofriction.averaged import Vibration
+
+WEIGHT_N = robots.PART_MASS_KG * robots.GRAVITY_M_PER_S2
+BOUND_N = robots.PLATE_PART_FRICTION.friction_coefficient * WEIGHT_N
+
+
+@pytest.mark.parametrize("name", sorted(robots.SCENES))
+def test_every_scene_loads_and_steps_without_warnings(name):
+    model = robots.load_model(name)
+    data = mujoco.MjData(model)
+    data.ctrl[:] = 1.0 if name != "plate_push_averaged" else 0.0
+    nstep = 2000 if model.opt.timestep < 1e-4 else 300
+    mujoco.mj_step(model, data, nstep)
+    assert all(w.number == 0 for w in data.warning), [w.number for w in data.warning]
+    assert np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))
+
+
+@pytest.fixture(scope="module")
+def averaged_push():
+    return {v: robots.run_push("averaged", vibration=v) for v in (True, False)}
+
+
+def _push_window(run: robots.SceneRun, start: float, end: float) -> np.ndarray:
+    return (run.time_s >= start) & (run.time_s < end)
+
+
+def test_push_needs_less_force_with_vibration(averaged_push):
+    plan = robots.PushPlan()
+    mask = _push_window(averaged_push[True], plan.push_start_s + 0.3, plan.push_end_s)
+    on = averaged_push[True].sensor("push_force")[mask].mean()
+    off = averaged_push[False].sensor("push_force")[mask].mean()
+    assert off == pytest.approx(BOUND_N, rel=0.01)  # Coulomb: the part slides at mu m g
+    assert on < 0.5 * off  # xi = 0.6 along the vibration
+    for run in averaged_push.values():
+        assert not run.warnings
+        # The normal load comes from the contact: m g.
+        assert run.sensor("part_friction")[mask, 6].mean() == pytest.approx(WEIGHT_N, rel=2e-3)
+        # The part ends where the pusher left it (60 mm along x, within a millimetre).
+        end = run.sensor("part_position")[-1]
+        assert end[0] == pytest.approx(plan.part_xy_m[0] + plan.distance_m, abs=1.5e-3)
+
+
+def test_resolved_push_matches_the_averaged_one(averaged_push):
+    """The resolved scene (2 kHz resolved, dt = 10 us) over the first 1.2 s: mean push force
+    in 0.8-1.2 s within 3 % of the averaged scene's (dt = 1 ms)."""
+    run = robots.run_push("resolved", vibration=True, duration_s=1.2)
+    assert not run.warnings
+    mask = _push_window(run, 0.8, 1.2)
+    resolved = run.sensor("push_force")[mask].mean()
+    fast = averaged_push[True]
+    averaged = fast.sensor("push_force")[_push_window(fast, 0.8, 1.2)].mean()
+    assert averaged == pytest.approx(resolved, rel=0.03)
+
+
+def test_averaged_push_is_stable_at_2_ms():
+    spec = mujoco.MjSpec.from_file(str(robots.scene_path("plate_push_averaged")))
+    spec.option.timestep = 2e-3
+    model = spec.compile()
+    plan = robots.PushPlan()
+    ctrl = robots.push_controls(model, plan, int(round(plan.duration_s / 2e-3)), 1.0)
+    x, y, quill = plan.pusher(0.0)
+    q1, q2 = robots.scara_ik(x, y)
+    state0 = robots.initial_state(model, ctrl[0], {"shoulder": q1, "elbow": q2, "quill": quill})
+    run = robots.run_scene(model, ctrl, state0)
+    assert not run.warnings
+    assert np.all(np.isfinite(run.sensordata))
+    assert np.max(np.linalg.norm(run.sensor("part_friction")[:, :2], axis=1)) <= BOUND_N * 1.01
+    end = run.sensor("part_position")[-1]
+    assert end[0] == pytest.approx(plan.part_xy_m[0] + plan.distance_m, abs=1.5e-3)
+
+
+def test_the_table_file_is_made_from_the_resolved_scene():
+    """plate_push_table.xml is what scripts/robot_tables.py makes now, and the law/vibration it
+    was made from are those of plate_push_resolved.xml."""
+    text = robots.table_files()["plate_push_table.xml"]
+    assert (robots.ROBOTS_DIR / "plate_push_table.xml").read_text() == text
+    spec = mujoco.MjSpec.from_file(str(robots.scene_path("plate_push_resolved")))
+    configs = {p.name: dict(p.config) for p in spec.plugins}
+    friction = configs["part_friction"]
+    assert friction["law"] == robots.PLATE_PART_FRICTION.law
+    assert float(friction["mu"]) == robots.PLATE_PART_FRICTION.friction_coefficient
+    assert float(friction["stiffness"]) == robots.PLATE_PART_FRICTION.contact_stiffness_N_per_m
+    shaker = configs["plate_shaker"]
+    assert Vibration(float(shaker["frequency"]), float(shaker["velocity_amplitude"])) == \
+        robots.PLATE_VIBRATION
+
+
+def test_scara_ik_reaches_its_targets():
+    for x, y in ((0.25, 0.0), (0.3, 0.1), (0.2, -0.15)):
+        q1, q2 = robots.scara_ik(x, y)
+        ex = robots.SCARA_L1_M * math.cos(q1) + robots.SCARA_L2_M * math.cos(q1 + q2)
+        ey = robots.SCARA_L1_M * math.sin(q1) + robots.SCARA_L2_M * math.sin(q1 + q2)
+        assert (ex, ey) == pytest.approx((x, y), abs=1e-12)
+
+
+def test_feeder_conveys_only_with_vibration():
+    on = robots.run_feeder(vibration=True, duration_s=1.0)
+    off = robots.run_feeder(vibration=False, duration_s=0.3)
+    assert not on.warnings and not off.warnings
+    t = on.time_s
+    for part in robots.FEEDER_PARTS:
+        x = on.sensor(f"{part}_position")[:, 0]
+        speed = np.polyfit(t[t > 0.5], x[t > 0.5], 1)[0]
+        assert 3e-3 < speed < 20e-3  # mm/s to cm/s: the sliding regime of a feeder
+        still = off.sensor(f"{part}_position")[:, 0]
+        assert np.max(np.abs(still - still[0])) < 1e-9  # rigid Coulomb sticks: no creep
+        state = on.sensor(f"{part}_friction")
+        weight = robots.FEEDER_PART_MASS_KG * robots.GRAVITY_M_PER_S2
+        assert state[t > 0.5, 6].mean() == pytest.approx(weight, rel=0.01)
+        assert state[t > 0.5, 6].max() > 1.5 * weight  # the normal load follows the throw
+
+
+_RENDER = """
+import sys
+from vibrofriction import robots
+run = robots.run_push("averaged", vibration=True, duration_s=0.05)
+try:
+    frame = robots.render_frames(run, [0.02], height=48, width=64)[0]
+except robots.RenderingUnavailable as reason:
+    print(reason)
+    sys.exit(3)
+assert frame.shape == (48, 64, 3) and frame.std() > 0, frame.shape
+"""
+
+
+def test_offscreen_rendering_where_available():
+    """MUJOCO_GL is read when mujoco is imported: try EGL, then OSMesa, in a fresh process."""
+    import os
+    import subprocess
+    import sys
+    reasons = []
+    for backend in ("egl", "osmesa"):
+        env = dict(os.environ, MUJOCO_GL=backend)
+        result = subprocess.run([sys.executable, "-c", _RENDER], env=env, capture_output=True,
+                                text=True, timeout=120)
+        if result.returncode == 0:
+            return
+        assert result.returncode == 3, result.stderr[-2000:]
+        reasons.append(result.stdout.strip())
+    pytest.skip("; ".join(reasons))
