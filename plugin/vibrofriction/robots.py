@@ -175,8 +175,9 @@ def push_controls(model: mujoco.MjModel, plan: PushPlan, nstep: int,
         ctrl[k, index["shoulder"]] = q1
         ctrl[k, index["elbow"]] = q2
         ctrl[k, index["quill"]] = quill
-        ctrl[k, index["plate_shaker"]] = gate(t)
-        ctrl[k, index["part_friction_x"]] = gate(t)
+        for gated in ("plate_shaker", "part_friction_x"):  # whichever the scene has
+            if gated in index:
+                ctrl[k, index[gated]] = gate(t)
     return ctrl
 
 
