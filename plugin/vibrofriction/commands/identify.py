@@ -1,0 +1,128 @@
+"""``vibrofriction identify DATA [--validate DATA]... [--law LAW] [--out DIR]``.
+
+Fits the friction law (the plugin's C++ code) to a measured record, traces the residual to the
+effects of the vocabulary, selects those the data justify and writes report.json (interfaces.md),
+report.md and figures to DIR. Progress goes to stderr.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import sys
+import time
+from pathlib import Path
+
+from ..cli import UsageError, parse_overrides, write_json
+from ..datasets import Dataset, DatasetMetadata, read_dataset
+from ..identify import EFFECTS, MIN_IMPROVEMENT, identify
+from ..identify.report import report_json, rig_replay, write_report
+from ..params import LAWS
+
+HELP = ("fit a friction law to a measured record (dataset format), trace the residual to "
+        "missing effects (viscous, stribeck, asymmetry, position_ripple, "
+        "normal_force_modulation, drive_damping, sensor_lag, force_offset), select those the "
+        "data justify, and write report.json, report.md and figures")
+
+# Sidecar keys --set may supply or override (dataset-format.md).
+_METADATA_KEYS = ("mass_kg", "normal_force_N", "drive_stiffness_N_per_m",
+                  "drive_velocity_m_per_s", "vibration_frequency_Hz")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("data", type=Path, metavar="DATA",
+                        help="training record: NAME.csv or NAME.csv.gz with its NAME.json")
+    parser.add_argument("--validate", type=Path, action="append", default=[], metavar="DATA",
+                        help="held-out record (repeatable); errors reported, and an effect "
+                             "must also lower the held-out error to be selected")
+    parser.add_argument("--law", default="lugre", choices=LAWS,
+                        help="friction law (default lugre: the law with every effect of the "
+                             "vocabulary, Stribeck included)")
+    parser.add_argument("--out", type=Path, default=None, metavar="DIR",
+                        help="output folder (default: identify_<NAME> in the current folder)")
+    parser.add_argument("--with", dest="declared", default="", metavar="EFFECT,...",
+                        help="effects known in advance, fitted in the baseline (e.g. "
+                             "viscous,force_offset for the EMPS benchmark's IDIM-LS model)")
+    parser.add_argument("--lowpass", type=float, default=None, metavar="HZ",
+                        help="parallel zero-phase low-pass (4th-order Butterworth) on the "
+                             "measured force and the model output; the position is filtered "
+                             "before differentiation (IDIM practice); off by default")
+    parser.add_argument("--min-improvement", type=float, default=MIN_IMPROVEMENT,
+                        metavar="FRACTION",
+                        help=f"least relative drop of the training RMSE for an effect to be "
+                             f"selected (default {MIN_IMPROVEMENT:g})")
+    parser.add_argument("--substeps", type=int, default=None, metavar="N",
+                        help="law substeps per sample interval (default 4; midpoint rule)")
+    parser.add_argument("--set", dest="overrides", action="append", default=[],
+                        metavar="NAME=VALUE",
+                        help="supply or override a sidecar value of DATA (and of every "
+                             f"--validate record): {', '.join(_METADATA_KEYS)}")
+    parser.add_argument("--timestep", type=float, default=1e-6, metavar="S",
+                        help="timestep of the MuJoCo rig replay of the final model (records "
+                             "of a spring-driven rig only; default 1e-6)")
+    parser.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    parser.add_argument("--json", dest="json_path", type=Path, default=None, metavar="FILE",
+                        help="also write report.json to FILE")
+
+
+def run(args: argparse.Namespace) -> int:
+    started = time.monotonic()
+    declared = [e.strip() for e in args.declared.split(",") if e.strip()]
+    unknown = [e for e in declared if e not in EFFECTS]
+    if unknown:
+        raise UsageError(f"--with: unknown effect(s) {', '.join(unknown)}; use: "
+                         f"{', '.join(EFFECTS)}")
+    if not 0 <= args.min_improvement < 1:
+        raise UsageError(f"--min-improvement {args.min_improvement} must lie in [0, 1)")
+    if args.substeps is not None and not 1 <= args.substeps <= 64:
+        raise UsageError(f"--substeps {args.substeps} must lie in 1..64")
+    if not (math.isfinite(args.timestep) and args.timestep > 0):
+        raise UsageError(f"--timestep {args.timestep} must be a positive number of seconds")
+    overrides = _metadata_overrides(args.overrides)
+    train = _with_metadata(read_dataset(args.data), overrides)
+    held = [_with_metadata(read_dataset(path), overrides) for path in args.validate]
+    out = args.out or Path(f"identify_{train.name}")
+
+    def progress(message: str) -> None:
+        print(f"[{time.monotonic() - started:6.1f} s] {message}", file=sys.stderr, flush=True)
+
+    result = identify(train, held, law=args.law, declared=declared, substeps=args.substeps,
+                      lowpass_Hz=args.lowpass, min_improvement=args.min_improvement,
+                      progress=progress)
+    replay = None
+    if train.metadata.drive_stiffness_N_per_m:
+        progress("replaying baseline and final model in the MuJoCo rig")
+        replay = rig_replay(result, train.metadata, timestep_s=args.timestep)
+    if not args.no_figures:
+        progress("writing report and figures")
+    write_report(result, out, figures=not args.no_figures, rig_replay_result=replay)
+    if args.json_path is not None:
+        write_json(args.json_path, report_json(result))
+    b, f = result.baseline.train, result.final.train
+    print(f"{train.name}: baseline relerr {b.relerr_pct:.3g} % -> final {f.relerr_pct:.3g} % "
+          f"(selected: {', '.join(result.selected) or 'nothing'}); report in {out}")
+    return 0
+
+
+def _metadata_overrides(pairs) -> dict[str, float]:
+    out = {}
+    for name, raw in parse_overrides(pairs).items():
+        if name not in _METADATA_KEYS:
+            raise UsageError(f"--set {name}: identify accepts only the sidecar values "
+                             f"{', '.join(_METADATA_KEYS)}")
+        try:
+            value = float(raw)
+        except ValueError:
+            raise UsageError(f"--set {name}={raw!r} is not a number") from None
+        if not math.isfinite(value):
+            raise UsageError(f"--set {name}={raw!r} must be finite")
+        out[name] = value
+    return out
+
+
+def _with_metadata(dataset: Dataset, overrides: dict[str, float]) -> Dataset:
+    if not overrides:
+        return dataset
+    metadata = dataclasses.replace(dataset.metadata, **overrides)
+    return Dataset(name=dataset.name, columns=dataset.columns, metadata=metadata,
+                   source_path=dataset.source_path)

@@ -1,0 +1,298 @@
+"""The inverse model: measured motion in, predicted measured force out, via the plugin's laws.
+
+    friction target:  y_hat = lag( F(v_r, x_rel, psi) )
+    drive target:     y_hat = lag( m a + F(v_r, x_rel, psi) - h_d (v_d - xdot) )
+
+F is ``laws.run_law`` -- the C++ law the MuJoCo plugin runs -- driven along the record's law
+grid (record.py). The drive-force form is Newton's law for the body, m a = F_drive,measured +
+h_d (v_d - xdot) - F: the dynamometer reads the drive spring, a damper acting in parallel
+(``drive_damping``) pushes without passing through it. ``lag`` is the first-order sensor lag
+(``sensor_lag_s``), discretized exactly for a signal linear between points and applied on the
+law grid's substep ends (a contact transition is shorter than a sample interval).
+
+Every fitted quantity is a field of FrictionParameters or RigParameters (``mass_kg``,
+``drive_damping_N_s_per_m``), so a fitted model is a rig model the plugin can run.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+from scipy.signal import lfilter
+
+from ..laws import run_law
+from ..params import FrictionParameters
+from .record import Record
+
+# The identification vocabulary (interfaces.md), in the order candidates are listed.
+EFFECTS = ("viscous", "stribeck", "asymmetry", "position_ripple", "normal_force_modulation",
+           "drive_damping", "sensor_lag", "force_offset")
+
+# Law parameters fitted in the baseline, per law (the effect fields are not law parameters).
+LAW_PARAMETERS: dict[str, tuple[str, ...]] = {
+    "coulomb": ("friction_coefficient",),
+    "dahl": ("friction_coefficient", "contact_stiffness_N_per_m", "alpha"),
+    "dupont": ("friction_coefficient", "contact_stiffness_N_per_m", "breakaway_ratio",
+               "bristle_damping_N_s_per_m"),
+    "lugre": ("friction_coefficient", "contact_stiffness_N_per_m", "bristle_damping_N_s_per_m"),
+}
+
+
+@dataclass(frozen=True)
+class Param:
+    """One internal coordinate q of the fit: theta = scale*q, or scale*exp(q) when log."""
+
+    name: str
+    lower: float
+    upper: float
+    scale: float
+    log: bool = False
+
+    def to_internal(self, value: float) -> float:
+        if self.log:
+            return math.log(max(value, self.lower * (1 + 1e-12)) / self.scale)
+        return value / self.scale
+
+    def from_internal(self, q: float) -> float:
+        return self.scale * math.exp(q) if self.log else self.scale * q
+
+    def internal_bounds(self) -> tuple[float, float]:
+        if self.log:
+            return math.log(self.lower / self.scale), math.log(self.upper / self.scale)
+        return self.lower / self.scale, self.upper / self.scale
+
+
+@dataclass(frozen=True)
+class Scales:
+    """Typical sizes in the record, used to scale the internal coordinates to O(1)."""
+
+    force_N: float  # friction level
+    velocity_m_per_s: float
+    normal_force_N: float
+    dt_s: float
+    travel_m: float
+
+    @classmethod
+    def of(cls, record: Record, friction_level_N: float) -> "Scales":
+        v = float(np.sqrt(np.mean(record.relative_velocity_m_per_s ** 2))) or 1e-3
+        dt = float(np.median(np.diff(record.time_s)))
+        travel = float(np.ptp(record.relative_position_m)) or 1e-3
+        return cls(force_N=max(friction_level_N, 1e-9), velocity_m_per_s=v,
+                   normal_force_N=float(np.median(record.normal_force_N)) or 1.0,
+                   dt_s=dt, travel_m=travel)
+
+
+def parameter_table(law: str, effects: Sequence[str], fit_mass: bool,
+                    scales: Scales) -> list[Param]:
+    """Internal coordinates for a law + effects (+ mass)."""
+    fn = scales.normal_force_N
+    f, v = scales.force_N, scales.velocity_m_per_s
+    mu = f / fn
+    table: dict[str, Param] = {
+        "friction_coefficient": Param("friction_coefficient", 0.0, 1e6 * mu, mu),
+        "contact_stiffness_N_per_m": Param("contact_stiffness_N_per_m", f * 1e-6 / scales.travel_m,
+                                           f * 1e12 / scales.travel_m,
+                                           f * 100 / scales.travel_m, log=True),
+        "alpha": Param("alpha", 0.05, 6.0, 1.0),
+        "breakaway_ratio": Param("breakaway_ratio", 0.02, 0.98, 1.0),
+        "bristle_damping_N_s_per_m": Param("bristle_damping_N_s_per_m", 0.0, 1e6 * f / v,
+                                           f / v),
+        "viscous_N_s_per_m": Param("viscous_N_s_per_m", 0.0, 1e6 * f / v, 0.1 * f / v),
+        # A Stribeck peak below 5x the Coulomb level, at a velocity the record resolves.
+        "static_ratio": Param("static_ratio", 1.0, 5.0, 1.0),
+        "stribeck_velocity_m_per_s": Param("stribeck_velocity_m_per_s", v * 1e-3, v * 10, v,
+                                           log=True),
+        "asymmetry": Param("asymmetry", -0.95, 0.95, 0.1),
+        "ripple_cos": Param("ripple_cos", -0.65, 0.65, 0.1),
+        "ripple_sin": Param("ripple_sin", -0.65, 0.65, 0.1),
+        "position_ripple_wavelength_m": Param("position_ripple_wavelength_m",
+                                              scales.travel_m * 1e-5, scales.travel_m * 10,
+                                              scales.travel_m, log=True),
+        "modulation_cos": Param("modulation_cos", -0.65, 0.65, 0.1),
+        "modulation_sin": Param("modulation_sin", -0.65, 0.65, 0.1),
+        "drive_damping_N_s_per_m": Param("drive_damping_N_s_per_m", 0.0, 1e6 * f / v, 0.1 * f / v),
+        "sensor_lag_s": Param("sensor_lag_s", 0.0, 1e4 * scales.dt_s, scales.dt_s),
+        "force_offset_N": Param("force_offset_N", -1e3 * f, 1e3 * f, 0.1 * f),
+        "mass_kg": Param("mass_kg", 1e-9, 1e9, 1.0),
+    }
+    names = list(LAW_PARAMETERS[law])
+    for effect in effects:
+        names.extend(EFFECT_INTERNALS[effect])
+    if fit_mass:
+        names.append("mass_kg")
+    return [table[name] for name in names]
+
+
+# Internal coordinates of each effect.
+EFFECT_INTERNALS: dict[str, tuple[str, ...]] = {
+    "viscous": ("viscous_N_s_per_m",),
+    "stribeck": ("static_ratio", "stribeck_velocity_m_per_s"),
+    "asymmetry": ("asymmetry",),
+    "position_ripple": ("ripple_cos", "ripple_sin", "position_ripple_wavelength_m"),
+    "normal_force_modulation": ("modulation_cos", "modulation_sin"),
+    "drive_damping": ("drive_damping_N_s_per_m",),
+    "sensor_lag": ("sensor_lag_s",),
+    "force_offset": ("force_offset_N",),
+}
+# Physical parameters each effect sets (vocabulary names: FrictionParameters / RigParameters).
+EFFECT_FIELDS: dict[str, tuple[str, ...]] = {
+    "viscous": ("viscous_N_s_per_m",),
+    "stribeck": ("static_ratio", "stribeck_velocity_m_per_s"),
+    "asymmetry": ("asymmetry",),
+    "position_ripple": ("position_ripple", "position_ripple_wavelength_m",
+                        "position_ripple_phase_rad"),
+    "normal_force_modulation": ("normal_force_modulation", "normal_force_modulation_phase_rad"),
+    "drive_damping": ("drive_damping_N_s_per_m",),
+    "sensor_lag": ("sensor_lag_s",),
+    "force_offset": ("force_offset_N",),
+}
+
+
+@dataclass(frozen=True)
+class Model:
+    """A law with a set of effects (and maybe the mass) over a fixed parameter table."""
+
+    law: str
+    effects: tuple[str, ...]
+    fit_mass: bool
+    params: tuple[Param, ...]
+    base: FrictionParameters = field(default_factory=FrictionParameters)
+
+    @classmethod
+    def build(cls, law: str, effects: Sequence[str], fit_mass: bool, scales: Scales,
+              base: FrictionParameters | None = None) -> "Model":
+        effects = tuple(e for e in EFFECTS if e in effects)
+        base = base or FrictionParameters(law=law)
+        return cls(law=law, effects=effects, fit_mass=fit_mass,
+                   params=tuple(parameter_table(law, effects, fit_mass, scales)),
+                   base=replace(base, law=law))
+
+    @property
+    def names(self) -> list[str]:
+        return [p.name for p in self.params]
+
+    @property
+    def k(self) -> int:
+        return len(self.params)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        lo, hi = zip(*(p.internal_bounds() for p in self.params))
+        return np.array(lo), np.array(hi)
+
+    def internal(self, values: Mapping[str, float]) -> np.ndarray:
+        """q for the given named internal values (missing ones: the table's neutral value)."""
+        q = np.array([p.to_internal(values.get(p.name, _neutral(p))) for p in self.params])
+        lo, hi = self.bounds()
+        return np.clip(q, lo, hi)
+
+    def internal_values(self, q: np.ndarray) -> dict[str, float]:
+        return {p.name: p.from_internal(float(x)) for p, x in zip(self.params, q)}
+
+    def values(self, q: np.ndarray) -> dict[str, float]:
+        """Physical values (vocabulary names) of everything this model fits."""
+        raw = self.internal_values(q)
+        out = {k: v for k, v in raw.items()
+               if k not in ("ripple_cos", "ripple_sin", "modulation_cos", "modulation_sin")}
+        if "ripple_cos" in raw:
+            out["position_ripple"] = math.hypot(raw["ripple_cos"], raw["ripple_sin"])
+            out["position_ripple_phase_rad"] = math.atan2(raw["ripple_sin"], raw["ripple_cos"])
+        if "modulation_cos" in raw:
+            out["normal_force_modulation"] = math.hypot(raw["modulation_cos"],
+                                                        raw["modulation_sin"])
+            out["normal_force_modulation_phase_rad"] = math.atan2(raw["modulation_sin"],
+                                                                  raw["modulation_cos"])
+        return out
+
+    def extended(self, effect: str, scales: Scales) -> "Model":
+        return Model.build(self.law, (*self.effects, effect), self.fit_mass, scales, self.base)
+
+    # ------------------------------------------------------------------------------ predict
+
+    def friction_parameters(self, values: Mapping[str, float],
+                            vibration_frequency_Hz: float | None = None) -> FrictionParameters:
+        """The FrictionParameters these values define (for the plugin / rig)."""
+        fields = {k: v for k, v in values.items() if hasattr(self.base, k)}
+        friction = replace(self.base, **fields)
+        if "normal_force_modulation" in values and vibration_frequency_Hz:
+            friction = replace(friction,
+                               normal_force_modulation_frequency_Hz=vibration_frequency_Hz)
+        return friction
+
+    def predict(self, record: Record, q: np.ndarray, *,
+                mass_kg: float | None = None) -> np.ndarray:
+        """Predicted measured force at the record's samples (before the record's low-pass)."""
+        return self.predict_values(record, self.values(q), mass_kg=mass_kg)
+
+    def predict_values(self, record: Record, values: Mapping[str, float], *,
+                       mass_kg: float | None = None) -> np.ndarray:
+        friction = replace(self.friction_parameters(values), normal_force_modulation=0.0,
+                           sensor_lag_s=0.0)
+        normal = record.grid_normal_force_N
+        modulation = values.get("normal_force_modulation", 0.0)
+        if modulation and record.vibrating:
+            phase = values.get("normal_force_modulation_phase_rad", 0.0)
+            normal = normal * (1.0 + modulation * np.sin(record.grid_support_phase_rad() + phase))
+        position = record.grid_position_m if values.get("position_ripple", 0.0) else None
+        run = run_law(friction, record.grid_time_s, record.grid_velocity_m_per_s,
+                      normal_force_N=normal, position_m=position)
+        lag = values.get("sensor_lag_s", 0.0)
+        if lag > 0 and record.stride > 1 and record.target == "friction":
+            # Lag on the substep ends (every second grid point): a contact transition is
+            # shorter than a sample interval, and the filter is exact only for a signal
+            # linear between its points.
+            substeps = record.stride // 2
+            dt = None if record.uniform_dt_s is None else record.uniform_dt_s / substeps
+            ends = first_order_lag(run.friction_force_N[0::2], record.grid_time_s[0::2], lag,
+                                   dt)
+            return ends[::substeps]
+        force = run.friction_force_N[::record.stride]
+        if record.target == "drive":
+            mass = values.get("mass_kg", mass_kg if mass_kg is not None else record.mass_kg)
+            force = mass * record.acceleration_m_per_s2 + force
+            damping = values.get("drive_damping_N_s_per_m", 0.0)
+            if damping:
+                force = force - damping * (record.drive_velocity_m_per_s -
+                                           record.body_velocity_m_per_s)
+        lag = values.get("sensor_lag_s", 0.0)
+        if lag > 0:
+            force = first_order_lag(force, record.time_s, lag, record.uniform_dt_s)
+        return force
+
+
+def _neutral(p: Param) -> float:
+    """Value of a parameter that switches its effect off (or a middle value)."""
+    neutral = {"static_ratio": 1.0, "alpha": 1.0, "breakaway_ratio": 0.7}
+    if p.name in neutral:
+        return neutral[p.name]
+    if p.log:
+        return p.scale
+    return min(max(0.0, p.lower), p.upper)
+
+
+def first_order_lag(signal: np.ndarray, time_s: np.ndarray, tau_s: float,
+                    uniform_dt_s: float | None) -> np.ndarray:
+    """tau y' + y = signal, exact for a signal linear between samples; y starts at signal[0]."""
+    if uniform_dt_s is not None:
+        a = math.exp(-uniform_dt_s / tau_s)
+        one_minus_a = -math.expm1(-uniform_dt_s / tau_s)
+        c = a - tau_s / uniform_dt_s * one_minus_a  # weight of the ramp between samples
+        b, den = [one_minus_a + c, -c], [1.0, -a]
+        zi = np.array([signal[0] * (1 - (one_minus_a + c))])
+        return lfilter(b, den, signal, zi=zi)[0]
+    out = np.empty_like(signal)
+    out[0] = signal[0]
+    dts = np.diff(time_s)
+    for i, dt in enumerate(dts.tolist()):
+        a = math.exp(-dt / tau_s)
+        one_minus_a = 1.0 - a
+        c = a - tau_s / dt * one_minus_a
+        out[i + 1] = a * out[i] + (one_minus_a + c) * signal[i + 1] - c * signal[i]
+    return out
+
+
+ProgressFn = Callable[[str], None]
+
+__all__ = ["EFFECTS", "LAW_PARAMETERS", "EFFECT_FIELDS", "EFFECT_INTERNALS", "Param", "Scales",
+           "Model", "first_order_lag"]

@@ -1,0 +1,429 @@
+"""Baseline fit, residual tracing and forward selection of effects.
+
+Criterion (documented in docs/readme_identify.md). A candidate effect E extends the current
+model M; both are fitted by least squares on the training record. E is *justified* when
+
+1. BIC with the effective sample size improves clearly:
+   dBIC = n_eff ln(RSS_E / RSS_M) + (k_E - k_M) ln(n_eff) < ``BIC_THRESHOLD`` (-10: "very
+   strong" evidence on the Kass & Raftery scale). n_eff = n / tau comes from the candidate's
+   residual autocorrelation, so structured (coloured) residuals of real data count for fewer
+   independent samples than white noise;
+2. the training RMSE falls by at least ``MIN_IMPROVEMENT`` (2 %): an effect that changes the
+   error by less is not worth a model term, however significant;
+3. with held-out records: their RMSE falls on average (mean log ratio < 0);
+4. for the periodic effects (position ripple, normal-force modulation): the effect explains the
+   residual clearly better (the same dBIC test) than an additive tone at the dominant frequency
+   of the effect's own contribution -- otherwise a disturbance outside the vocabulary could be
+   mistaken for it.
+
+Forward selection: every applicable candidate is fitted; the justified one with the lowest dBIC
+joins the model; repeat until none is justified. Nothing is selected when nothing is justified.
+"""
+from __future__ import annotations
+
+import math
+import os
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+
+from ..datasets import Dataset
+from ..errors import InputError
+from ..params import LAWS, FrictionParameters
+from .analysis import ResidualAnalysis, analyse
+from .fit import FitResult, Problem
+from .model import EFFECTS, EFFECT_INTERNALS, Model, Scales
+from .record import Record, UNIT_NORMAL_FORCE_N, prepare
+
+BIC_THRESHOLD = -10.0
+MIN_IMPROVEMENT = 0.02
+CANDIDATE_EVALUATIONS_PER_PARAMETER = 20
+# Contact stiffness scan of the baseline start: characteristic deflection mu F_N / k_t over
+# this range of fractions of the record's travel.
+_DEFLECTION_SCAN = np.logspace(-6, 0, 25)
+_STRIBECK_SCAN = np.logspace(-2, 0.5, 11)  # v_s / rms(v_r)
+
+ProgressFn = Callable[[str], None]
+
+
+@dataclass(frozen=True, eq=False)
+class Candidate:
+    effect: str
+    fit: FitResult
+    delta_bic: float
+    train_drop: float  # relative RMSE reduction on the training record
+    validation_log_ratio: float | None  # mean ln(RMSE_E / RMSE_M) over held-out records
+    tone_delta_bic: float | None  # candidate vs the best additive tone (periodic effects)
+    tone_frequency_Hz: float | None
+    round: int
+    justified: bool
+    reason: str
+    seconds: float = 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class Identification:
+    law: str
+    declared: tuple[str, ...]
+    train: Record
+    validation: list[Record]
+    baseline: FitResult
+    final: FitResult
+    candidates: dict[str, Candidate]  # last evaluation of each effect
+    rounds: list[list[Candidate]]
+    selected: list[str]
+    skipped: dict[str, str]  # effect -> why it was not a candidate
+    baseline_analysis: ResidualAnalysis
+    final_analysis: ResidualAnalysis
+    exposing: dict[str, str]  # selected effect -> the regressor that exposed it
+    settings: dict = field(default_factory=dict)
+
+
+def identify(train: Dataset, validation: Sequence[Dataset] = (), *, law: str = "lugre",
+             declared: Sequence[str] = (), substeps: int | None = None,
+             lowpass_Hz: float | None = None, min_improvement: float = MIN_IMPROVEMENT,
+             bic_threshold: float = BIC_THRESHOLD, threads: int | None = None,
+             progress: ProgressFn | None = None) -> Identification:
+    """Fit ``law`` (+ declared effects) to ``train``, then trace and select effects."""
+    say = progress or (lambda message: None)
+    if law not in LAWS:
+        raise InputError(f"unknown friction law {law!r}; use one of: {', '.join(LAWS)}")
+    unknown = [e for e in declared if e not in EFFECTS]
+    if unknown:
+        raise InputError(f"unknown effect(s) {', '.join(unknown)}; the vocabulary is "
+                         f"{', '.join(EFFECTS)}")
+    state_law = law != "coulomb"
+    record = prepare(train, substeps=substeps, lowpass_Hz=lowpass_Hz, state_law=state_law)
+    held = [prepare(d, substeps=substeps, lowpass_Hz=lowpass_Hz, state_law=state_law)
+            for d in validation]
+    _check_compatible(record, held)
+    problem = Problem(record, held)
+    fit_mass = record.target == "drive" and record.mass_kg is None
+    say(f"{record.name}: {record.n} samples, {record.target} force measured, law {law}"
+        + (", mass identified" if fit_mass else "")
+        + (f", {len(held)} held-out record(s)" if held else ""))
+    skipped = _not_applicable(record, law, declared)
+    declared = tuple(e for e in EFFECTS if e in declared and e not in skipped)
+    level, start = _initial_level(record, fit_mass, law)
+    scales = Scales.of(record, level)
+    base = FrictionParameters(law=law)
+    model = Model.build(law, declared, fit_mass, scales, base)
+    if state_law:
+        start = _scan_stiffness(problem, model, start, level)
+    say(f"baseline: fitting {model.k} parameters ({', '.join(model.names)})")
+    baseline = problem.fit(model, start)
+    say(f"baseline: RMSE {baseline.train.rmse_N:.4g} N, relerr {baseline.train.relerr_pct:.3g} %")
+    baseline_analysis = analyse(record, baseline.residual)
+    current = baseline
+    remaining = [e for e in EFFECTS if e not in declared and e not in skipped]
+    candidates: dict[str, Candidate] = {}
+    rounds: list[list[Candidate]] = []
+    selected: list[str] = []
+    workers = threads or min(len(remaining) or 1, _cpu_count())
+    with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
+        while remaining:
+            index = len(rounds) + 1
+            say(f"round {index}: fitting {len(remaining)} candidate(s): {', '.join(remaining)}")
+            jobs = [pool.submit(_candidate, problem, current, effect, scales, index,
+                                min_improvement, bic_threshold) for effect in remaining]
+            evaluated = [job.result() for job in jobs]
+            for c in evaluated:
+                candidates[c.effect] = c
+                say(f"  {c.effect:<24s} dBIC {c.delta_bic:10.1f}  RMSE "
+                    f"{c.fit.train.rmse_N:.4g} N ({100 * c.train_drop:+.1f} %)  "
+                    f"[{c.fit.nfev} evaluations, {c.seconds:.1f} s]  "
+                    f"{'justified' if c.justified else 'no: ' + c.reason}")
+            rounds.append(evaluated)
+            justified = [c for c in evaluated if c.justified]
+            if not justified:
+                break
+            best = min(justified, key=lambda c: c.delta_bic)
+            selected.append(best.effect)
+            current = best.fit
+            remaining.remove(best.effect)
+            say(f"round {index}: selected {best.effect}")
+    say("selected: " + (", ".join(selected) if selected else "nothing"))
+    final_analysis = analyse(record, current.residual)
+    exposing = {e: _exposing_regressor(e, baseline_analysis) for e in selected}
+    return Identification(
+        law=law, declared=declared, train=record, validation=held, baseline=baseline,
+        final=current, candidates=candidates, rounds=rounds, selected=selected,
+        skipped=skipped, baseline_analysis=baseline_analysis, final_analysis=final_analysis,
+        exposing=exposing,
+        settings={"substeps": substeps, "lowpass_Hz": lowpass_Hz,
+                  "min_improvement": min_improvement, "bic_threshold": bic_threshold,
+                  "fit_mass": fit_mass})
+
+
+# ---------------------------------------------------------------------------- applicability
+
+def _not_applicable(record: Record, law: str, declared: Sequence[str]) -> dict[str, str]:
+    out: dict[str, str] = {}
+    if law == "dahl":
+        out["stribeck"] = "the Dahl law has no Stribeck curve (use lugre, dupont or coulomb)"
+    if not record.vibrating:
+        out["normal_force_modulation"] = ("the support does not vibrate (no support velocity "
+                                          "or vibration_frequency_Hz)")
+    if record.target == "drive":
+        out["sensor_lag"] = ("the lag (sensor_lag_s) is the plugin's friction-sensor lag; this "
+                             "record measures the drive force, whose prediction holds the "
+                             "measured acceleration: a lag there would smooth sensor noise, "
+                             "not model a sensor")
+    if record.target != "drive":
+        out["drive_damping"] = ("friction is measured directly: drive damping does not enter "
+                                "the measured force")
+    elif not record.vibrating and record.drive_velocity_m_per_s == 0:
+        out["drive_damping"] = ("identical to viscous here: fixed support and no drive spring, "
+                                "so h_d (v_d - xdot) = -h_d v_r")
+    if np.ptp(record.relative_position_m) < 2 * _min_wavelength(record):
+        out["position_ripple"] = "the record does not travel two ripple wavelengths"
+    for effect in declared:
+        out.pop(effect, None)
+    return out
+
+
+def _check_compatible(train: Record, held: Sequence[Record]) -> None:
+    for record in held:
+        if record.target != train.target:
+            raise InputError(f"{record.name}: measures the {record.target} force but the "
+                             f"training record {train.name} the {train.target} force; "
+                             "validate on records that measure the same force")
+        if train.target == "drive" and record.acceleration_m_per_s2 is None:
+            raise InputError(f"{record.name}: no acceleration")
+
+
+# ------------------------------------------------------------------------------ baseline start
+
+def _initial_level(record: Record, fit_mass: bool, law: str) -> tuple[float, dict[str, float]]:
+    """Friction level (N) and start values by linear least squares on sgn(v) (+ a, + 1)."""
+    v = record.relative_velocity_m_per_s
+    y = np.array(record.target_N, dtype=float)
+    columns = [np.sign(v) * record.normal_force_N]
+    if record.target == "drive":
+        if fit_mass:
+            columns.append(record.acceleration_m_per_s2)
+        else:
+            y = y - record.mass_kg * record.acceleration_m_per_s2
+    columns.append(np.ones_like(v))
+    coef, *_ = np.linalg.lstsq(np.column_stack(columns), y, rcond=None)
+    normal = float(np.median(record.normal_force_N))
+    mu = float(coef[0]) if coef[0] > 0 else float(np.median(np.abs(y)) / normal)
+    mu = max(mu, 1e-9)
+    start = {"friction_coefficient": mu, "alpha": 1.0, "breakaway_ratio": 0.7,
+             "bristle_damping_N_s_per_m": 0.0, "force_offset_N": float(coef[-1])}
+    if fit_mass:
+        start["mass_kg"] = max(float(coef[1]), 1e-6)
+    return mu * normal, start
+
+
+def _scan_stiffness(problem: Problem, model: Model, start: dict[str, float],
+                    level: float) -> dict[str, float]:
+    travel = float(np.ptp(problem.train.relative_position_m)) or 1e-3
+    best, best_rss = None, math.inf
+    for fraction in _DEFLECTION_SCAN:
+        trial = dict(start, contact_stiffness_N_per_m=level / (fraction * travel))
+        r = problem.residual(model, model.internal(trial))
+        rss = float(r @ r)
+        if rss < best_rss:
+            best, best_rss = trial, rss
+    return best
+
+
+# ------------------------------------------------------------------------------- candidates
+
+def _candidate(problem: Problem, current: FitResult, effect: str, scales: Scales, index: int,
+               min_improvement: float, bic_threshold: float) -> Candidate:
+    model = current.model.extended(effect, scales)
+    start = dict(current.model.internal_values(current.q))
+    start.update(_effect_start(problem, current, effect, model))
+    started = time.monotonic()
+    # A candidate starts next to its optimum (the projection); one that needs more than this
+    # budget is not clearly in the data, and a truncated fit only understates its merit.
+    fit = problem.fit(model, start, max_nfev=CANDIDATE_EVALUATIONS_PER_PARAMETER * (model.k + 1))
+    seconds = time.monotonic() - started
+    n_eff = fit.n_eff
+    delta_bic = n_eff * math.log(fit.rss / current.rss) + (fit.k - current.k) * math.log(n_eff)
+    drop = 1.0 - fit.train.rmse_N / current.train.rmse_N
+    val_ratio = None
+    if fit.validation:
+        val_ratio = float(np.mean([math.log(a.rmse_N / b.rmse_N)
+                                   for a, b in zip(fit.validation, current.validation)]))
+    tone_dbic = tone_frequency = None
+    if effect in ("position_ripple", "normal_force_modulation"):
+        tone_dbic, tone_frequency = _tone_competition(problem, current, fit, effect)
+    reasons = []
+    if not delta_bic < bic_threshold:
+        reasons.append(f"dBIC {delta_bic:.1f} not below {bic_threshold:g}")
+    if not drop >= min_improvement:
+        reasons.append(f"RMSE falls only {100 * drop:.2f} % (< {100 * min_improvement:g} %)")
+    if val_ratio is not None and not val_ratio < 0:
+        reasons.append(f"held-out RMSE does not fall ({100 * (math.exp(val_ratio) - 1):+.2f} %)")
+    if tone_dbic is not None and not tone_dbic < bic_threshold:
+        reasons.append(f"no better than an additive tone at {tone_frequency:.4g} Hz "
+                       f"(dBIC {tone_dbic:.1f})")
+    return Candidate(effect=effect, fit=fit, delta_bic=delta_bic, train_drop=drop,
+                     validation_log_ratio=val_ratio, tone_delta_bic=tone_dbic,
+                     tone_frequency_Hz=tone_frequency, round=index, justified=not reasons,
+                     reason="; ".join(reasons) if reasons else _why(effect, delta_bic, drop),
+                     seconds=seconds)
+
+
+def _why(effect: str, delta_bic: float, drop: float) -> str:
+    return f"dBIC {delta_bic:.1f}, training RMSE -{100 * drop:.1f} %"
+
+
+def _effect_start(problem: Problem, current: FitResult, effect: str,
+                  model: Model) -> dict[str, float]:
+    """Start values of an effect's coordinates: the residual projected on its signature.
+
+    The signature of a coordinate is the change of the prediction when it moves a little away
+    from "off"; the least-squares projection of minus the residual on the signatures gives the
+    start. Nonlinear coordinates (Stribeck velocity, ripple wavelength) are scanned.
+    """
+    record = problem.train
+    base = dict(current.model.internal_values(current.q))
+    params = {p.name: p for p in model.params}
+
+    def prediction(values: Mapping[str, float]) -> np.ndarray:
+        return record.lowpass(model.predict(record, model.internal({**base, **values})))
+
+    def project(names: Sequence[str], fixed: Mapping[str, float]) -> tuple[dict, float]:
+        reference = prediction({**fixed, **{n: _off(params[n]) for n in names}})
+        columns = []
+        for name in names:
+            step = 0.1 * params[name].scale
+            trial = {**fixed, **{n: _off(params[n]) for n in names}}
+            trial[name] = _off(params[name]) + step
+            columns.append((prediction(trial) - reference) / step)
+        target = problem.measured - reference  # what the effect must add to the others
+        a = np.column_stack(columns)
+        coef, *_ = np.linalg.lstsq(a, target, rcond=None)
+        rss = float(np.sum((a @ coef - target) ** 2))
+        values = {name: float(_off(params[name]) + c) for name, c in zip(names, coef)}
+        return values, rss
+
+    if effect == "stribeck":
+        v_rms = math.sqrt(float(np.mean(record.relative_velocity_m_per_s ** 2))) or 1e-3
+        best, best_rss = {}, math.inf
+        for ratio in _STRIBECK_SCAN:
+            fixed = {"stribeck_velocity_m_per_s": ratio * v_rms}
+            values, rss = project(["static_ratio"], fixed)
+            if rss < best_rss:
+                best, best_rss = {**fixed, **values}, rss
+        # The projection linearizes; start within a plausible Stribeck peak.
+        best["static_ratio"] = min(max(best.get("static_ratio", 1.0), 1.0 + 1e-3), 3.0)
+        return best
+    if effect == "position_ripple":
+        wavelength = _ripple_scan(problem, current)
+        fixed = {"position_ripple_wavelength_m": wavelength}
+        values, _ = project(["ripple_cos", "ripple_sin"], fixed)
+        return {**fixed, **values}
+    values, _ = project(list(EFFECT_INTERNALS[effect]), {})
+    return values
+
+
+def _off(p) -> float:
+    """Internal value that switches a coordinate's effect off."""
+    if p.name == "static_ratio":
+        return 1.0
+    return 0.0 if not p.log else p.scale
+
+
+def _min_wavelength(record: Record) -> float:
+    """Shortest ripple wavelength the sampling resolves: 4 samples of travel per wavelength."""
+    step = np.abs(np.diff(record.relative_position_m))
+    return 4.0 * float(np.quantile(step, 0.95)) if len(step) else math.inf
+
+
+def _ripple_scan(problem: Problem, current: FitResult) -> float:
+    """Wavelength whose level-scaled sine/cosine pair best explains the residual."""
+    record = problem.train
+    values = dict(current.values)
+    for name in ("viscous_N_s_per_m", "force_offset_N", "sensor_lag_s"):
+        values.pop(name, None)
+    level_model = current.model
+    friction = np.asarray(level_model.predict_values(_as_friction(record), values))
+    x = record.relative_position_m
+    travel = float(np.ptp(x))
+    cycles_max = travel / _min_wavelength(record)
+    cycles = np.arange(0.75, max(cycles_max, 1.0), 0.25)
+    target = -current.residual
+    best, best_gain = travel, -math.inf
+    for c in cycles:
+        k = 2 * math.pi * c / travel
+        # (unfiltered columns even for low-passed records: this only picks a start value)
+        a = np.column_stack([friction * np.sin(k * x), friction * np.cos(k * x)])
+        coef, *_ = np.linalg.lstsq(a, target, rcond=None)
+        gain = float(coef @ (a.T @ target))
+        if gain > best_gain:
+            best, best_gain = travel / c, gain
+    return best
+
+
+def _as_friction(record: Record) -> Record:
+    """The record seen as a friction measurement (so predict returns the law force only)."""
+    from dataclasses import replace
+    return replace(record, target="friction")
+
+
+def _tone_competition(problem: Problem, current: FitResult, fit: FitResult,
+                      effect: str) -> tuple[float, float]:
+    """dBIC of the effect against an additive tone at its dominant frequency."""
+    record = problem.train
+    off = dict(fit.values)
+    if effect == "position_ripple":
+        off["position_ripple"] = 0.0
+    else:
+        off["normal_force_modulation"] = 0.0
+    contribution = record.lowpass(fit.model.predict_values(record, fit.values)) - \
+        record.lowpass(fit.model.predict_values(record, off))
+    t = record.time_s
+    dt = float(np.median(np.diff(t)))
+    grid = np.arange(t[0], t[-1], dt)
+    sampled = np.interp(grid, t, contribution)
+    spectrum = np.abs(np.fft.rfft(sampled - sampled.mean()))
+    frequencies = np.fft.rfftfreq(len(sampled), dt)
+    peak = int(np.argmax(spectrum[1:])) + 1
+    bin_Hz = frequencies[1]
+    target = -current.residual
+    best_rss, best_f = math.inf, frequencies[peak]
+    for f in frequencies[peak] + bin_Hz * np.linspace(-2, 2, 41):
+        if f <= 0:
+            continue
+        a = np.column_stack([np.sin(2 * math.pi * f * t), np.cos(2 * math.pi * f * t)])
+        a = np.column_stack([record.lowpass(a[:, 0]), record.lowpass(a[:, 1])])
+        coef, *_ = np.linalg.lstsq(a, target, rcond=None)
+        rss = float(np.sum((target - a @ coef) ** 2))
+        if rss < best_rss:
+            best_rss, best_f = rss, float(f)
+    k_effect = len(EFFECT_INTERNALS[effect])
+    n_eff = fit.n_eff
+    dbic = n_eff * math.log(fit.rss / best_rss) + (k_effect - 3) * math.log(n_eff)
+    return float(dbic), best_f
+
+
+def _exposing_regressor(effect: str, analysis: ResidualAnalysis) -> str:
+    """The regressor that shows the effect in the baseline residual."""
+    preferred = {
+        "viscous": "relative_velocity", "stribeck": "relative_velocity",
+        "asymmetry": "relative_velocity", "position_ripple": "position",
+        "normal_force_modulation": "support_phase", "drive_damping": "support_phase",
+        "sensor_lag": "support_phase", "force_offset": "time",
+    }[effect]
+    if preferred in analysis.binned:
+        return preferred
+    strongest = analysis.strongest()
+    return strongest and next(k for k, v in analysis.binned.items() if v is strongest) or "time"
+
+
+def _cpu_count() -> int:
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover
+        return max(1, os.cpu_count() or 1)
+
+
+__all__ = ["identify", "Identification", "Candidate", "BIC_THRESHOLD", "MIN_IMPROVEMENT"]
