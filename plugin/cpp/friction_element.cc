@@ -169,7 +169,11 @@ std::unique_ptr<FrictionElement> FrictionElement::Create(const mjModel* m, int i
       new FrictionElement(config, ConfigFingerprint(m, instance)));
 }
 
-bool FrictionElement::Refresh(const mjModel* m, int instance) {
+bool FrictionElement::Refresh(const mjModel* m, int instance, bool later_in_step) {
+  // The actuator callback compares the config bytes every step (rollout may switch models
+  // between steps); the sensor and advance callbacks of the same step only check the model.
+  if (later_in_step && m == step_model_) return valid_;
+  step_model_ = m;
   if (ConfigUnchanged(m, instance, fingerprint_)) return valid_;
   fingerprint_ = ConfigFingerprint(m, instance);
   valid_ = FrictionConfig::FromModel(m, instance, &config_);
@@ -191,7 +195,7 @@ LawInput FrictionElement::Input(const mjModel* m, const mjData* d, double veloci
 }
 
 void FrictionElement::Compute(const mjModel* m, mjData* d, int instance) {
-  if (!Refresh(m, instance)) {
+  if (!Refresh(m, instance, /*later_in_step=*/false)) {
     d->actuator_force[config_.output] = 0;
     return;
   }
@@ -216,7 +220,7 @@ void FrictionElement::ComputeSensor(const mjModel* m, mjData* d, int instance) {
   for (int s = 0; s < m->nsensor; ++s) {
     if (m->sensor_plugin[s] != instance) continue;
     mjtNum* out = d->sensordata + m->sensor_adr[s];
-    if (!Refresh(m, instance)) {
+    if (!Refresh(m, instance, /*later_in_step=*/true)) {
       mju_zero(out, kSensorDim);
       continue;
     }
@@ -232,7 +236,7 @@ void FrictionElement::ComputeSensor(const mjModel* m, mjData* d, int instance) {
 }
 
 void FrictionElement::Advance(const mjModel* m, mjData* d, int instance) {
-  if (!Refresh(m, instance)) return;
+  if (!Refresh(m, instance, /*later_in_step=*/true)) return;
   const double dt = m->opt.timestep;
   if (config_.sensor_lag > 0) {
     // Exact first-order lag over the step, driven by this step's force.

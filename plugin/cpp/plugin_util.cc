@@ -71,10 +71,11 @@ double TransmissionVelocity(const mjModel* m, const mjData* d, int out) {
 StepResponse ComputeStepResponse(const mjModel* m, mjData* d, int out,
                                  std::vector<mjtNum>* scratch) {
   const int nv = m->nv;
-  scratch->assign(3 * nv, 0.0);
+  if (scratch->size() < static_cast<std::size_t>(3 * nv)) scratch->resize(3 * nv);
   mjtNum* force = scratch->data();
   mjtNum* solved = force + nv;
   mjtNum* row = force + 2 * nv;
+  mju_zero(row, nv);
 
   // Generalized force known so far: passive - bias + applied + other actuators' outputs.
   for (int i = 0; i < nv; ++i) {
