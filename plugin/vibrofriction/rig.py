@@ -86,8 +86,8 @@ def build_spec(rig: RigParameters, friction: FrictionParameters,
     spec.option.timestep = timestep_s
     spec.body("slider").mass = rig.mass_kg
     drive = spec.actuator("drive_spring")
-    drive.biasprm[:3] = [rig.drive_damping_N_s_per_m * rig.drive_velocity_m_per_s,
-                         -rig.drive_stiffness_N_per_m, -rig.drive_damping_N_s_per_m]
+    # Tendon length x - x_B, velocity xdot - v_d: F_d = -k_d (x - x_B) - h_d (xdot - v_d).
+    drive.biasprm[:3] = [0.0, -rig.drive_stiffness_N_per_m, -rig.drive_damping_N_s_per_m]
     _set_plugin_config(spec, "table_shaker", {
         "frequency": repr(float(rig.vibration_frequency_Hz)),
         "velocity_amplitude": repr(float(rig.vibration_velocity_amplitude_m_per_s))})
