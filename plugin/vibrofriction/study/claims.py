@@ -97,14 +97,48 @@ def _deviations(points, below: bool) -> dict[str, float]:
     return out
 
 
+def _oracle_check(results: StudyResults, worst_below: float) -> dict[str, Any] | None:
+    """The worst kappa_v < 1 reduction of the Fig. 14 configuration, re-run with the
+    independent scipy oracle (``vibrofriction.reference``), when there is one."""
+    if not worst_below > NO_REDUCTION_TOLERANCE:
+        return None
+    cands = [p for p in results.fig14 if p.kappa < 1 - 1e-9]
+    if not cands:
+        return None
+    p = max(cands, key=lambda q: abs(1 - q.ratio))
+    if abs(1 - p.ratio) <= NO_REDUCTION_TOLERANCE:
+        return None
+    try:
+        from .. import reference
+        from .. import rig as rig_module
+    except ImportError:  # pragma: no cover - reference.py ships with the package
+        return None
+    rig = EXPERIMENT_FIG14.rig(p.vibration_velocity_amplitude_m_per_s, base=results.config.rig)
+    friction = results.config.friction_for(p.law, rig, EXPERIMENT_FIG14.contact_stiffness_N_per_m)
+    duration, settle = rig_module.default_times(rig, friction)
+    ref = reference.simulate_reference(rig, friction, duration, sample_dt_s=2e-6)
+    kt = friction.contact_stiffness_N_per_m
+    return {"law": p.law, "kappa": p.kappa, "ratio": p.ratio,
+            "oracle_ratio": ref.summary(settle).mean_drive_force_N / p.static_drive_force_N,
+            "band_Hz": [contact_resonance_Hz(kt, rig.mass_kg),
+                        contact_resonance_Hz(2 * kt, rig.mass_kg)]}
+
+
 def claim_no_reduction(results: StudyResults) -> Claim:
     below = _deviations(results.master, True)
     equal = _deviations(results.master, False)
     below14 = _deviations(results.fig14, True)
     equal14 = _deviations(results.fig14, False)
     sweep_below = sweep_equal = math.nan
+    sweep_worst = None
     if results.sweep is not None:
         recs = results.sweep.records
+        below_recs = [r for r in recs if r.kappa < 1 - 1e-9]
+        if below_recs:
+            w = max(below_recs, key=lambda r: abs(1 - r.ratio))
+            sweep_worst = {"kappa": w.kappa, "vibration_frequency_Hz": w.vibration_frequency_Hz,
+                           "contact_stiffness_N_per_um": w.contact_stiffness_N_per_m / N_PER_UM,
+                           "normal_force_N": w.normal_force_N, "ratio": w.ratio}
         sweep_below = max((abs(1 - r.ratio) for r in recs if r.kappa < 1 - 1e-9),
                           default=math.nan)
         sweep_equal = max((abs(1 - r.ratio) for r in recs if math.isclose(r.kappa, 1.0)),
@@ -132,7 +166,9 @@ def claim_no_reduction(results: StudyResults) -> Claim:
     worst_equal = finite_max(equal, equal14, sweep_equal)
     holds_below = worst_below <= NO_REDUCTION_TOLERANCE
     holds_equal = worst_equal <= NO_REDUCTION_TOLERANCE
-    holds = "yes" if holds_below and holds_equal else ("partly" if holds_below else "no")
+    paper_ok = max(below.values()) <= NO_REDUCTION_TOLERANCE
+    holds = ("yes" if holds_below and holds_equal
+             else "partly" if paper_ok else "no")
 
     def fmt(d):
         return ", ".join(f"{LAW_LABELS[k]} {v * 100:.3g} %" for k, v in d.items()
@@ -148,6 +184,24 @@ def claim_no_reduction(results: StudyResults) -> Claim:
                 + f". F_F peak-to-peak at 0.25 mm/s: Dahl {ripple['dahl'] * 100:.2g} %, "
                 f"Coulomb {ripple['coulomb'] * 100:.2g} % of mu F_N")
     notes = []
+    oracle = _oracle_check(results, worst_below)
+    if oracle is not None:
+        notes.append(
+            f"{EXPERIMENT_FIG14.figure} configuration, {LAW_LABELS[oracle['law']]} at kappa_v = "
+            f"{oracle['kappa']:g}: F_dv/F_ds = {oracle['ratio']:.3f} (independent scipy "
+            f"oracle, vibrofriction.reference: {oracle['oracle_ratio']:.3f}). Dahl's tangent "
+            "stiffness is k_t (1 - F/F_c) when loading but up to 2 k_t when unloading, so the "
+            "slider-on-contact resonance spans sqrt(k_t/m)/2pi ... sqrt(2 k_t/m)/2pi = "
+            f"{oracle['band_Hz'][0]:.0f}-{oracle['band_Hz'][1]:.0f} Hz here, and the "
+            f"{EXPERIMENT_FIG14.vibration_frequency_Hz:g} Hz excitation lies inside it: the "
+            "slider keeps vibrating on the contact and slips although v_a < v_d.")
+    if sweep_worst is not None and abs(1 - sweep_worst["ratio"]) > NO_REDUCTION_TOLERANCE:
+        notes.append(f"Grid sweep, worst case below v_d: F_dv/F_ds = {sweep_worst['ratio']:.3f} "
+                     f"at kappa_v {sweep_worst['kappa']:g}, f {sweep_worst['vibration_frequency_Hz']:g}"
+                     f" Hz, k_t {sweep_worst['contact_stiffness_N_per_um']:g} N/um, F_N "
+                     f"{sweep_worst['normal_force_N']:g} N (near this band, whether the run ends "
+                     "in the vibrating or the steadily sliding state can depend on details, "
+                     "even the timestep).")
     if not holds_equal:
         notes.append("At v_a = v_d exactly the kinematic v_r = v_d (1 - cos wt) only touches "
                      "zero; the slider's own vibration on the contact spring then makes v_r "
@@ -168,9 +222,11 @@ def claim_no_reduction(results: StudyResults) -> Claim:
                    f"as no reduction below {NO_REDUCTION_TOLERANCE * 100:g} %; kappa_v grid "
                    f"{kappas}; F_F peak-to-peak at v_a = 0.25 mm/s over mu F_N (Fig. 7).",
         computed=computed,
-        values={"kappa_below_1": {"paper_rig": below, "fig14": below14, "sweep": sweep_below},
+        values={"kappa_below_1": {"paper_rig": below, "fig14": below14, "sweep": sweep_below,
+                                  "sweep_worst_case": sweep_worst},
                 "kappa_equal_1": {"paper_rig": equal, "fig14": equal14, "sweep": sweep_equal},
                 "worst_below_1": worst_below, "worst_equal_1": worst_equal,
+                "oracle_check": oracle,
                 "friction_peak_to_peak_over_level_at_0.25mm_s": ripple,
                 "stiffness_study_at_kappa_1": resonant},
         holds=holds, note=" ".join(notes))

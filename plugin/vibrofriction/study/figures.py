@@ -135,8 +135,9 @@ def plot_master(points: Sequence[MasterPoint], laws: Sequence[str], path: Path, 
     for law in laws:
         c = curve(points, law)
         ks = [p.kappa for p in c]
+        emphasis = dict(lw=2.4, zorder=5) if law == "dahl" else dict(lw=1.2, zorder=4)
         ax.plot(ks, [p.ratio for p in c], "o-", ms=3, color=LAW_COLORS[law],
-                label=f"{LAW_LABELS[law]} (rig)")
+                label=f"{LAW_LABELS[law]} (rig)", **emphasis)
         kin = [p.kinematic_ratio for p in c]
         if not all(math.isnan(v) for v in kin):
             ax.plot(ks, kin, "--", lw=0.9, color=LAW_COLORS[law],

@@ -45,15 +45,15 @@ def have_analytic() -> bool:
 def arcsin_ratios(kappas: Sequence[float]) -> np.ndarray | None:
     """Rigid Coulomb, kinematic: (2/pi) arcsin(1/kappa) for kappa > 1, else 1; None if
     ``vibrofriction.analytic`` is not available."""
-    if _analytic is None:  # TODO(issue 3): analytic.py not in this checkout yet
+    if _analytic is None:  # pragma: no cover - analytic.py ships with the package
         return None
     xi = 1.0 / np.asarray(kappas, dtype=float)
-    return np.asarray(_analytic.arcsin_law(xi), dtype=float)
+    return np.asarray(_analytic.coulomb_kinematic_ratio(xi), dtype=float)
 
 
 def dahl_vanishing_amplitude_ratios(kappas: Sequence[float], alpha: float) -> np.ndarray | None:
     """Dahl for u0 -> 0 (tanh(ln(P/N)/(2 alpha)), physics.md); None if analytic.py is missing."""
-    if _analytic is None:  # TODO(issue 3): analytic.py not in this checkout yet
+    if _analytic is None:  # pragma: no cover - analytic.py ships with the package
         return None
     xi = 1.0 / np.asarray(kappas, dtype=float)
-    return np.asarray(_analytic.dahl_vanishing_amplitude(xi, alpha), dtype=float)
+    return np.asarray(_analytic.dahl_vanishing_amplitude_ratio(xi, alpha), dtype=float)
