@@ -166,6 +166,7 @@ class VariantRun:
     rig: RigParameters
     timestep_s: float
     wall_s: float  # single-thread wall time of the whole run
+    cpu_s: float  # CPU time of the calling thread for it (insensitive to other load)
     summary: RunSummary
     time_s: np.ndarray | None = None
     friction_force_N: np.ndarray | None = None
@@ -209,9 +210,9 @@ def run_variants(requests: Sequence[tuple[str, RigParameters, float]], config: S
             threads = min(nthread, len(models)) if parallel and len(models) > 1 else 0
             with mj_rollout.Rollout(nthread=threads) as pool:
                 datas = [mujoco.MjData(models[0]) for _ in range(max(1, threads))]
-                t0 = time.perf_counter()
+                t0, c0 = time.perf_counter(), time.thread_time()
                 _, sensordata = pool.rollout(models, datas, states, nstep=nstep)
-                wall = time.perf_counter() - t0
+                wall, cpu = time.perf_counter() - t0, time.thread_time() - c0
             for k, i in enumerate(part):
                 r = requests[i][1]
                 drive, friction = _friction_series(models[k], sensordata[k], r.mass_kg, builtin)
@@ -225,6 +226,7 @@ def run_variants(requests: Sequence[tuple[str, RigParameters, float]], config: S
                     keep_t, keep_f = t[keep] - t[keep][0], friction[keep].copy()
                 out[i] = VariantRun(variant=v, rig=r, timestep_s=dt,
                                     wall_s=wall if len(part) == 1 else math.nan,
+                                    cpu_s=cpu if len(part) == 1 and threads == 0 else math.nan,
                                     summary=summary, time_s=keep_t, friction_force_N=keep_f)
             done += len(part)
             if progress:
@@ -260,6 +262,7 @@ class LadderResult:
     steps: int
     timestep_s: float
     wall_s: float
+    cpu_s: float
     mean_drive_force_N: float
 
 
@@ -278,11 +281,14 @@ class VariantSummary:
     dt_target_s: float | None  # ... of the target plugin law's finest run
     wall_own_s: float | None  # single-thread wall time of one run at dt_own_s (max over kappas)
     wall_target_s: float | None
+    cpu_own_s: float | None  # its CPU time (the thread's), the load-independent cost
+    cpu_target_s: float | None
 
     def row(self) -> dict[str, object]:
         return {"variant": self.variant, "element": self.element, "target": self.target,
                 "dt_own_s": self.dt_own_s, "dt_target_s": self.dt_target_s,
                 "wall_own_s": self.wall_own_s, "wall_target_s": self.wall_target_s,
+                "cpu_own_s": self.cpu_own_s, "cpu_target_s": self.cpu_target_s,
                 **{f"ratio_kappa_{k:g}": v for k, v in self.ratios.items()}}
 
 
@@ -329,7 +335,7 @@ def compare(config: StudyConfig, comparison: ComparisonConfig, *,
     ladder = []
     for (v, r, dt), run in zip(requests, runs):
         ladder.append(LadderResult(variant=v, kappa=r.kappa, steps=int(round(
-            1 / (f * dt))), timestep_s=dt, wall_s=run.wall_s,
+            1 / (f * dt))), timestep_s=dt, wall_s=run.wall_s, cpu_s=run.cpu_s,
             mean_drive_force_N=run.summary.mean_drive_force_N))
     # 2. Master curves at a common fine step, and the static runs (F_d-s).
     master_dt = period_timestep(f, comparison.master_steps)
@@ -366,6 +372,7 @@ def _summaries(comparison: ComparisonConfig, ladder: Sequence[LadderResult],
         errs_own: dict[float, list[float]] = {}
         errs_target: dict[float, list[float]] = {}
         walls: dict[float, list[float]] = {}
+        cpus: dict[float, list[float]] = {}
         dts: list[float] = []
         for kappa in comparison.operating_kappas:
             mine = [x for x in ladder if x.variant == v and math.isclose(x.kappa, kappa)]
@@ -378,6 +385,7 @@ def _summaries(comparison: ComparisonConfig, ladder: Sequence[LadderResult],
             errs_own[kappa] = [abs(x.mean_drive_force_N / own_ref - 1) for x in mine]
             errs_target[kappa] = [abs(x.mean_drive_force_N / target_ref - 1) for x in mine]
             walls[kappa] = [x.wall_s for x in mine]
+            cpus[kappa] = [x.cpu_s for x in mine]
         worst_own = [max(errs_own[k][i] for k in errs_own) for i in range(len(dts))]
         worst_target = [max(errs_target[k][i] for k in errs_target) for i in range(len(dts))]
         dt_own = _required(worst_own, dts, tol, skip_last=True)
@@ -385,11 +393,11 @@ def _summaries(comparison: ComparisonConfig, ladder: Sequence[LadderResult],
         dt_target = dt_own if is_target else _required(worst_target, dts, tol,
                                                        skip_last=False)
 
-        def wall_at(dt):
+        def at(table, dt):
             if dt is None:
                 return None
             i = dts.index(dt)
-            return max(walls[k][i] for k in walls)
+            return max(table[k][i] for k in table)
         ratios = {}
         signs = {}
         for run in master:
@@ -399,8 +407,9 @@ def _summaries(comparison: ComparisonConfig, ladder: Sequence[LadderResult],
         rows.append(VariantSummary(
             variant=v, element=variant.element, target=variant.target, ratios=ratios,
             sign_change=signs, errors_vs_target=errs_target, errors_vs_own=errs_own,
-            dt_own_s=dt_own, dt_target_s=dt_target, wall_own_s=wall_at(dt_own),
-            wall_target_s=wall_at(dt_target)))
+            dt_own_s=dt_own, dt_target_s=dt_target, wall_own_s=at(walls, dt_own),
+            wall_target_s=at(walls, dt_target), cpu_own_s=at(cpus, dt_own),
+            cpu_target_s=at(cpus, dt_target)))
     return rows
 
 
@@ -473,8 +482,8 @@ def _us(dt: float | None) -> str:
     return "not reached" if dt is None else f"{dt * 1e6:.3g} µs"
 
 
-def _s(wall: float | None) -> str:
-    return "—" if wall is None or math.isnan(wall) else f"{wall:.2f} s"
+def _s(seconds: float | None) -> str:
+    return "—" if seconds is None or math.isnan(seconds) else f"{seconds:.2f} s"
 
 
 def comparison_table(result: Comparison) -> str:
@@ -485,12 +494,14 @@ def comparison_table(result: Comparison) -> str:
     head = ("| variant | MuJoCo element | target | "
             + " | ".join(f"F_dv/F_ds κ={k:g}" for k in shown)
             + f" | error vs target at T/{coarse} | dt for 1 % (own) | dt for 1 % (target) | "
-            "wall per run at that dt |")
-    sep = "|" + "---|" * (6 + len(shown))
+            "CPU (wall) per run at that dt |")
+    sep = "|" + "---|" * (7 + len(shown))
     lines = [head, sep]
     for row in result.rows:
         worst_coarse = max(row.errors_vs_target[k][0] for k in row.errors_vs_target)
-        wall = row.wall_target_s if row.dt_target_s is not None else row.wall_own_s
+        use_target = row.dt_target_s is not None
+        wall = row.wall_target_s if use_target else row.wall_own_s
+        cpu = row.cpu_target_s if use_target else row.cpu_own_s
         wall_note = "" if row.dt_target_s is not None or row.dt_own_s is None else " (own)"
         ratios = " | ".join(
             f"{row.ratios.get(k, math.nan):.4f}" + (" ±" if row.sign_change.get(k) else "")
@@ -498,7 +509,7 @@ def comparison_table(result: Comparison) -> str:
         lines.append(
             f"| {row.variant} | {row.element} | {row.target} | {ratios} | "
             f"{worst_coarse * 100:.2g} % | {_us(row.dt_own_s)} | {_us(row.dt_target_s)} | "
-            f"{_s(wall)}{wall_note} |")
+            f"{_s(cpu)} ({_s(wall)}){wall_note} |")
     return "\n".join(lines)
 
 
@@ -510,7 +521,7 @@ def write_comparison(result: Comparison, out: Path) -> dict[str, Path]:
                                    rows=[r.row() for r in result.rows])
     paths["ladder_csv"] = write_csv(out / "builtin_timestep_ladder.csv", rows=[
         {"variant": x.variant, "kappa": x.kappa, "steps_per_period": x.steps,
-         "timestep_s": x.timestep_s, "wall_s": x.wall_s,
+         "timestep_s": x.timestep_s, "wall_s": x.wall_s, "cpu_s": x.cpu_s,
          "mean_drive_force_N": x.mean_drive_force_N} for x in result.ladder])
     paths["master_csv"] = write_csv(out / "builtin_master.csv", rows=[
         {"variant": r.variant, "kappa": r.rig.kappa, "timestep_s": r.timestep_s,
@@ -547,8 +558,9 @@ points. **own**: F_ref is the variant's own run at the finest dt (does it conver
 **target**: F_ref is the finest run of the plugin law it models (Coulomb for frictionloss
 and contact, LuGre for dcmotor, Dupont with z_ba/z_ss = 0.99 = Jenkins for springyield) --
 does it converge to the right answer? "dt for 1 %" is the largest ladder step from which on
-every finer step stays within {c.tolerance * 100:g} %; the wall time is one single-thread run
-of {result.duration_s * 1e3:.0f} ms of simulated time at that step.
+every finer step stays within {c.tolerance * 100:g} %; the cost is the CPU time (and wall
+time) of one single-thread run of {result.duration_s * 1e3:.0f} ms of simulated time at that step
+(the calling thread's CPU time does not depend on other load on the machine).
 
 {comparison_table(result)}
 """

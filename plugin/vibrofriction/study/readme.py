@@ -88,10 +88,10 @@ def write_readme_section(results: Path, docs: Path, *, figure_prefix: str = "fig
         f"at kappa_v = {', '.join(f'{k:g}' for k in builtin['operating_kappas'])}; error of the "
         "mean drive force against the variant's own finest run (**own**) and against the "
         "finest run of the plugin law it models (**target**: Coulomb for frictionloss and "
-        "contact, LuGre for dcmotor, Dupont z_ba/z_ss = 0.99 for springyield); wall time of one "
-        f"single-thread run of {builtin['duration_s'] * 1e3:.0f} ms simulated at the step "
-        "reaching 1 % against the target (or its own, marked). ± marks a friction force that "
-        "changes sign.",
+        "contact, LuGre for dcmotor, Dupont z_ba/z_ss = 0.99 for springyield); cost: CPU time "
+        f"(wall time) of one single-thread run of {builtin['duration_s'] * 1e3:.0f} ms "
+        "simulated at the step reaching 1 % against the target (or its own, marked). ± marks "
+        "a friction force that changes sign.",
         "",
         *_builtin_table(builtin_md),
         "",

@@ -98,6 +98,7 @@ def comparison_json(result: builtin.Comparison) -> dict[str, Any]:
             "errors_vs_own": {f"{k:g}": v for k, v in r.errors_vs_own.items()},
             "dt_own_s": r.dt_own_s, "dt_target_s": r.dt_target_s,
             "wall_own_s": clean(r.wall_own_s), "wall_target_s": clean(r.wall_target_s),
+            "cpu_own_s": clean(r.cpu_own_s), "cpu_target_s": clean(r.cpu_target_s),
         } for r in result.rows],
     }
 
