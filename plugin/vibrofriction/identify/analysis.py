@@ -4,7 +4,7 @@
   support, support phase, time) and the share of the residual variance they explain (eta^2):
   structure that a missing effect leaves behind.
 * Welch spectrum and its peaks that stand clearly above the noise floor (the running median of
-  the spectrum): ``PEAK_FACTOR`` = 10 (10 dB). For white noise the largest of ~500 Welch bins
+  the spectrum): ``PEAK_FACTOR`` = 10 (10 dB), and carry at least 1 % of the residual variance. For white noise the largest of ~500 Welch bins
   averaged over >= 8 segments exceeds its mean by less than 3x, so 10x is not reached by chance.
 * Autocorrelation and the integrated autocorrelation time tau (Sokal's automatic window): the
   residual carries n/tau independent samples, the sample size the selection criterion uses.
@@ -21,6 +21,7 @@ from scipy.ndimage import median_filter
 from .record import Record
 
 PEAK_FACTOR = 10.0
+PEAK_MIN_SHARE = 0.01
 MAX_PEAKS = 5
 # Sokal's window constant: sum the autocorrelation up to the first lag M >= C tau(M).
 SOKAL_C = 5.0
@@ -120,10 +121,16 @@ def residual_spectrum(record: Record, residual: np.ndarray) -> Spectrum | None:
 
 
 def spectral_peaks(frequency: np.ndarray, psd: np.ndarray, floor: np.ndarray) -> list[float]:
-    """Frequencies of the local maxima above PEAK_FACTOR x floor, strongest first (no DC)."""
+    """Frequencies of the local maxima above PEAK_FACTOR x floor that carry at least
+    PEAK_MIN_SHARE of the residual variance (a line 10 dB over a very low floor can still be
+    negligible), strongest first, no DC."""
     ratio = np.divide(psd, floor, out=np.zeros_like(psd), where=floor > 0)
     index, _ = find_peaks(np.concatenate([[0.0], ratio[1:]]), height=PEAK_FACTOR, distance=2)
     index = index[index > 1]  # the first bins are the record's trend, not a tone
+    total = float(np.sum(psd))
+    share = np.array([np.sum(psd[max(i - 2, 0):i + 3] - floor[max(i - 2, 0):i + 3]) / total
+                      for i in index]) if total > 0 else np.zeros(len(index))
+    index = index[share >= PEAK_MIN_SHARE]
     order = index[np.argsort(psd[index])[::-1]][:MAX_PEAKS]
     return [float(_refine(frequency, psd, i)) for i in order]
 

@@ -46,18 +46,23 @@ def _fit_figure(result: Identification, path: Path, plt) -> Path:
     measured = record.lowpass(record.target_N)
     baseline = measured + result.baseline.residual
     final = measured + result.final.residual
-    fig, axes = plt.subplots(2, 1, figsize=(7.5, 5.2))
+    final_label = "final: + " + (", ".join(result.selected) or "nothing")
+    fig, axes = plt.subplots(3, 1, figsize=(7.5, 7.0))
     s = _decimate(len(t))
     for ax, window, title in ((axes[0], s, "whole record"), (axes[1], _zoom(result), "detail")):
         ax.plot(t[window], measured[window], color="0.55", lw=1.6, label="measured")
         ax.plot(t[window], baseline[window], color="tab:blue", lw=0.9,
                 label=f"baseline ({result.baseline.train.relerr_pct:.3g} %)")
-        final_label = "final: + " + (", ".join(result.selected) or "nothing")
         ax.plot(t[window], final[window], color="tab:red", lw=0.9, ls="--",
                 label=f"{final_label} ({result.final.train.relerr_pct:.3g} %)")
         ax.set_ylabel(f"{record.target} force (N)")
         ax.set_title(f"{record.name}: {title}", fontsize=9)
-    axes[1].set_xlabel("time (s)")
+    axes[2].plot(t[s], result.baseline.residual[s], color="tab:blue", lw=0.6,
+                 label="baseline residual")
+    axes[2].plot(t[s], result.final.residual[s], color="tab:red", lw=0.6, label="final residual")
+    axes[2].set_ylabel("model - measured (N)")
+    axes[2].set_xlabel("time (s)")
+    axes[2].legend(fontsize=7, loc="best")
     axes[0].legend(fontsize=7, loc="best")
     fig.tight_layout()
     fig.savefig(path, dpi=_DPI)
