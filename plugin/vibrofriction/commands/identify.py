@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 from ..cli import UsageError, parse_overrides, write_json
-from ..datasets import Dataset, DatasetMetadata, read_dataset
+from ..datasets import Dataset, read_dataset
 from ..identify import EFFECTS, MIN_IMPROVEMENT, identify
 from ..identify.report import report_json, rig_replay, write_report
 from ..params import LAWS

@@ -2,15 +2,14 @@
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
 import numpy as np
-from scipy.optimize import OptimizeWarning, least_squares
+from scipy.optimize import least_squares
 
 from .analysis import effective_samples
-from .model import Model, Scales
+from .model import Model
 from .record import Record
 
 # Relative tolerances of least_squares: a relative change of 1e-8 in the cost moves the
@@ -42,6 +41,7 @@ class FitResult:
     validation: list[Metrics]
     nfev: int
     notes: list[str] = field(default_factory=list)
+    at_bound: tuple[str, ...] = ()  # fitted values that ended on a bound of their range
 
     @property
     def n(self) -> int:
@@ -79,11 +79,9 @@ class Problem:
         """Least squares from ``start`` (named internal values)."""
         q0 = model.internal(start)
         lo, hi = model.bounds()
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", OptimizeWarning)
-            result = least_squares(lambda q: self.residual(model, q), q0, bounds=(lo, hi),
-                                   method="trf", x_scale="jac", ftol=_TOL, xtol=_TOL, gtol=_TOL,
-                                   max_nfev=max_nfev or 40 * (model.k + 1))
+        result = least_squares(lambda q: self.residual(model, q), q0, bounds=(lo, hi),
+                               method="trf", x_scale="jac", ftol=_TOL, xtol=_TOL, gtol=_TOL,
+                               max_nfev=max_nfev or 40 * (model.k + 1))
         return self.result(model, result.x, result.fun, result.jac, result.nfev, notes)
 
     def result(self, model: Model, q: np.ndarray, residual: np.ndarray,
@@ -93,9 +91,12 @@ class Problem:
         n_eff = effective_samples(residual)
         uncertainties = _uncertainties(model, q, jac, rss, len(residual), n_eff)
         train, held = self.metrics(model, values)
+        lo, hi = model.bounds()
+        at_bound = tuple(p.name for p, x, a, b in zip(model.params, q, lo, hi)
+                         if min(x - a, b - x) <= 1e-6 * max(1.0, abs(x)) and p.name in values)
         return FitResult(model=model, q=np.array(q), values=values, residual=residual, rss=rss,
                          n_eff=n_eff, uncertainties=uncertainties, train=train,
-                         validation=held, nfev=nfev, notes=list(notes))
+                         validation=held, nfev=nfev, notes=list(notes), at_bound=at_bound)
 
 
 def _metrics(name: str, predicted: np.ndarray, measured: np.ndarray) -> Metrics:

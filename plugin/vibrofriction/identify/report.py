@@ -8,15 +8,14 @@ import os
 import shutil
 import tempfile
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
 from ..params import RigParameters
 from .fit import FitResult
 from .model import EFFECT_FIELDS, EFFECTS
-from .record import Record
-from .selection import Candidate, Identification
+from .selection import Identification
 
 REPORT_FILES = ("report.json", "report.md", "fit.png", "residual_vs_regressor.png",
                 "spectrum.png")
@@ -203,9 +202,10 @@ def _metric_cell(m) -> str:
 def _pm(fit: FitResult, name: str) -> str:
     value = fit.values[name]
     sigma = fit.uncertainties.get(name)
+    bound = " (at the bound of its range)" if name in fit.at_bound else ""
     if sigma is None or not math.isfinite(sigma):
-        return f"{value:.6g}"
-    return f"{value:.6g} ± {sigma:.2g}"
+        return f"{value:.6g}{bound}"
+    return f"{value:.6g} ± {sigma:.2g}{bound}"
 
 
 def _effect_names(effect: str, fit: FitResult) -> list[str]:

@@ -36,7 +36,7 @@ from ..params import LAWS, FrictionParameters
 from .analysis import ResidualAnalysis, analyse
 from .fit import FitResult, Problem
 from .model import EFFECTS, EFFECT_INTERNALS, Model, Scales
-from .record import Record, UNIT_NORMAL_FORCE_N, prepare
+from .record import Record, prepare
 
 BIC_THRESHOLD = -10.0
 MIN_IMPROVEMENT = 0.02
@@ -349,7 +349,7 @@ def _ripple_scan(problem: Problem, current: FitResult) -> float:
     x = record.relative_position_m
     travel = float(np.ptp(x))
     cycles_max = travel / _min_wavelength(record)
-    cycles = np.arange(0.75, max(cycles_max, 1.0), 0.25)
+    cycles = np.arange(1.0, max(cycles_max, 1.25), 0.25)
     target = -current.residual
     best, best_gain = travel, -math.inf
     for c in cycles:
