@@ -103,3 +103,13 @@ def test_timestep_study(cli_run):
 def test_unknown_variant_exits_2(tmp_path, capsys):
     assert cli.main(["compare-builtin", "--variants", "nope", "--out", str(tmp_path)]) == 2
     assert "unknown variant" in capsys.readouterr().err
+
+
+def test_required_timestep_is_the_largest_from_which_on_all_finer_steps_pass():
+    dts = [8.0, 4.0, 2.0, 1.0]  # coarse -> fine; the last is the own reference
+    assert builtin._required([0.02, 0.005, 0.001, 0.0], dts, 0.01, skip_last=True) == 4.0
+    # A coarse step that happens to pass does not count when a finer one fails.
+    assert builtin._required([0.005, 0.02, 0.001, 0.0], dts, 0.01, skip_last=True) == 2.0
+    assert builtin._required([0.5, 0.5, 0.5, 0.5], dts, 0.01, skip_last=False) is None
+    # Against another variant's reference the finest step counts too.
+    assert builtin._required([0.5, 0.5, 0.5, 0.005], dts, 0.01, skip_last=False) == 1.0

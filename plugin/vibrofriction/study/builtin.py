@@ -453,10 +453,22 @@ def plot_comparison(result: Comparison, path: Path) -> Path:
                 ax.plot(run.time_s * result.frequency_Hz, run.friction_force_N, **style,
                         label=run.variant)
         ax.axhline(0, color="0.7", lw=0.5)
+        # Contact friction with a tight solref chatters; clip to keep the others readable.
+        level = result.static.get("plugin-coulomb", 0.0)
+        if level > 0:
+            ax.set_ylim(-1.7 * level, 1.7 * level)
+            peaks = {run.variant: float(np.max(np.abs(run.friction_force_N)))
+                     for run in result.traces if math.isclose(run.rig.kappa, kappa)
+                     and run.friction_force_N is not None}
+            clipped = [f"{v} up to {p:.0f} N" for v, p in peaks.items() if p > 1.7 * level]
+            if clipped:
+                ax.text(0.01, 0.02, "clipped: " + ", ".join(clipped), fontsize=6,
+                        transform=ax.transAxes, color="0.3")
         ax.set_xlabel("t / T")
         ax.set_ylabel(r"$F_F$ (N)")
         va = kappa * result.traces[0].rig.drive_velocity_m_per_s / MM_PER_S
-        ax.set_title(f"({letter}) F_F at kappa_v = {kappa:g} (v_a = {va:g} mm/s)", fontsize=9)
+        ax.set_title(f"({letter}) F_F at kappa_v = {kappa:g} (v_a = {va:g} mm/s); built-in: "
+                     "F_d - m a", fontsize=8)
     ax = grid[1, 1]
     for row in result.rows:
         dts = sorted({x.timestep_s for x in result.ladder if x.variant == row.variant},

@@ -188,7 +188,7 @@ def claim_no_reduction(results: StudyResults) -> Claim:
     if oracle is not None:
         notes.append(
             f"{EXPERIMENT_FIG14.figure} configuration, {LAW_LABELS[oracle['law']]} at kappa_v = "
-            f"{oracle['kappa']:g}: F_dv/F_ds = {oracle['ratio']:.3f} (independent scipy "
+            f"{oracle['kappa']:.3g}: F_dv/F_ds = {oracle['ratio']:.3f} (independent scipy "
             f"oracle, vibrofriction.reference: {oracle['oracle_ratio']:.3f}). Dahl's tangent "
             "stiffness is k_t (1 - F/F_c) when loading but up to 2 k_t when unloading, so the "
             "slider-on-contact resonance spans sqrt(k_t/m)/2pi ... sqrt(2 k_t/m)/2pi = "
@@ -197,7 +197,7 @@ def claim_no_reduction(results: StudyResults) -> Claim:
             "slider keeps vibrating on the contact and slips although v_a < v_d.")
     if sweep_worst is not None and abs(1 - sweep_worst["ratio"]) > NO_REDUCTION_TOLERANCE:
         notes.append(f"Grid sweep, worst case below v_d: F_dv/F_ds = {sweep_worst['ratio']:.3f} "
-                     f"at kappa_v {sweep_worst['kappa']:g}, f {sweep_worst['vibration_frequency_Hz']:g}"
+                     f"at kappa_v {sweep_worst['kappa']:.3g}, f {sweep_worst['vibration_frequency_Hz']:g}"
                      f" Hz, k_t {sweep_worst['contact_stiffness_N_per_um']:g} N/um, F_N "
                      f"{sweep_worst['normal_force_N']:g} N (near this band, whether the run ends "
                      "in the vibrating or the steadily sliding state can depend on details, "
@@ -251,7 +251,7 @@ def claim_reduction_without_sign_change(results: StudyResults) -> Claim:
     for law, v in per_law.items():
         if v:
             parts.append(f"{LAW_LABELS[law]} down to {v['lowest_ratio_without_sign_change']:.3f}"
-                         f" (kappa_v {v['at_kappa']:g})")
+                         f" (kappa_v {v['at_kappa']:.3g})")
         else:
             parts.append(f"{LAW_LABELS[law]} none")
     return Claim(
@@ -291,8 +291,8 @@ def claim_sign_change(results: StudyResults) -> Claim:
                    "change sets in.",
         computed=(f"Dahl at kappa_v 6: F_F from {tr.summary.friction_min_N:.2f} to "
                   f"{tr.summary.friction_max_N:.2f} N; onset between kappa_v: "
-                  + ", ".join(f"{LAW_LABELS[k]} {v['last_kappa_without']:g}-"
-                              f"{v['first_kappa_with_sign_change']:g}"
+                  + ", ".join(f"{LAW_LABELS[k]} {v['last_kappa_without']:.3g}-"
+                              f"{v['first_kappa_with_sign_change']:.3g}"
                               if v["first_kappa_with_sign_change"] is not None
                               and v["last_kappa_without"] is not None
                               else f"{LAW_LABELS[k]} {v['first_kappa_with_sign_change']}"
@@ -322,7 +322,7 @@ def claim_twenty_fold(results: StudyResults) -> Claim:
         computed=", ".join(
             f"{LAW_LABELS[k]}: 20-fold at kappa_v "
             + (f"{v['kappa_for_20_fold']:.1f}" if v["kappa_for_20_fold"] else "not reached")
-            + f", {v['reduction_factor_at_max_kappa']:.0f}-fold at {v['max_kappa']:g}"
+            + f", {v['reduction_factor_at_max_kappa']:.0f}-fold at {v['max_kappa']:.3g}"
             for k, v in per_law.items()),
         values={"per_law": per_law}, holds=_yes_no(ok))
 
@@ -348,13 +348,13 @@ def claim_wrong_stiffness(results: StudyResults) -> Claim:
                or math.isclose(e["wrong_stiffness_N_per_um"] * N_PER_UM, true_kt * 2)]
     worst2 = max(factor2, key=lambda e: abs(e["error_percent"])) if factor2 else None
     computed = (f"largest |error| {worst['error_percent']:+.0f} % with k_t = "
-                f"{worst['wrong_stiffness_N_per_um']:g} N/um at kappa_v {worst['kappa']:g} "
+                f"{worst['wrong_stiffness_N_per_um']:g} N/um at kappa_v {worst['kappa']:.3g} "
                 f"(predicted F_dv/F_ds {worst['predicted_ratio']:.4f} vs "
                 f"{worst['true_ratio']:.4f})")
     if worst2:
         computed += (f"; for a factor-2 error in k_t: {worst2['error_percent']:+.0f} % "
                      f"(k_t = {worst2['wrong_stiffness_N_per_um']:g} N/um, kappa_v "
-                     f"{worst2['kappa']:g})")
+                     f"{worst2['kappa']:.3g})")
     return Claim(
         id="wrong_stiffness_error_above_100_percent",
         paper="An inappropriate k_t always gives an erroneous drive force; in extreme cases the "
