@@ -170,3 +170,25 @@ def test_readme_snippet_compiles_and_the_block_creeps(tmp_path):
     assert data.qpos[block] == pytest.approx(0.26e-3, rel=0.05)
     f_f, z = data.sensordata[0], data.sensordata[1]
     assert f_f == pytest.approx(8e7 * z)
+
+
+def test_a_second_copy_at_another_path_is_refused(tmp_path):
+    """load() uses one absolute path; a copy elsewhere would register the same names again.
+    Run in a child process: the refused copy stays mapped in the process that tried it."""
+    import subprocess
+    import sys
+
+    script = (
+        "import shutil, sys, mujoco, vibrofriction\n"
+        "from vibrofriction import _native\n"
+        "vibrofriction.load()\n"
+        "assert _native.library_path().is_absolute()\n"
+        "copy = shutil.copy(_native.library_path(), sys.argv[1])\n"
+        "try:\n"
+        "    mujoco.mj_loadPluginLibrary(copy)\n"
+        "except Exception as exc:\n"
+        "    print(exc)\n")
+    out = subprocess.run([sys.executable, "-c", script, str(tmp_path / "copy.so")],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert "already registered" in out.stdout
