@@ -226,7 +226,7 @@ bool AveragedConfig::FromModel(const mjModel* m, int instance, AveragedConfig* c
 }
 
 AveragedFriction::AveragedFriction(AveragedConfig config, std::string fingerprint)
-    : config_(std::move(config)), fingerprint_(std::move(fingerprint)) {}
+    : config_(&AveragedConfig::FromModel, std::move(config), std::move(fingerprint)) {}
 
 std::unique_ptr<AveragedFriction> AveragedFriction::Create(const mjModel* m, int instance) {
   AveragedConfig config;
@@ -235,53 +235,35 @@ std::unique_ptr<AveragedFriction> AveragedFriction::Create(const mjModel* m, int
       new AveragedFriction(config, ConfigFingerprint(m, instance)));
 }
 
-bool AveragedFriction::Refresh(const mjModel* m, int instance, bool compare) {
-  // The config is compared byte for byte once a step (in Compute, the first callback of a
-  // step), in place: the averaged table makes it kilobytes long. Within a step the model
-  // cannot change, so the sensor and advance callbacks only check the model pointer.
-  if (!compare && m == model_) return valid_;
-  model_ = m;
-  const int begin = m->plugin_attradr[instance];
-  const int end = instance + 1 < m->nplugin ? m->plugin_attradr[instance + 1] : m->npluginattr;
-  const size_t size = static_cast<size_t>(end - begin);
-  if (size == fingerprint_.size() &&
-      std::memcmp(m->plugin_attr + begin, fingerprint_.data(), size) == 0) {
-    return valid_;
-  }
-  fingerprint_.assign(m->plugin_attr + begin, m->plugin_attr + end);
-  valid_ = AveragedConfig::FromModel(m, instance, &config_);
-  return valid_;
-}
-
 void AveragedFriction::Force(const double u[2], double normal_force, double velocity_amplitude,
                              double force[2]) const {
-  const double c = config_.axis_cos, s = config_.axis_sin;
+  const double c = config_->axis_cos, s = config_->axis_sin;
   const double along = c * u[0] + s * u[1];
   const double across = -s * u[0] + c * u[1];
   const double xi = std::hypot(along, across) / velocity_amplitude;
   const double angle = std::atan2(std::fabs(across), along);
   double f_along, f_across;
-  config_.table.Evaluate(xi, angle, &f_along, &f_across);
+  config_->table.Evaluate(xi, angle, &f_along, &f_across);
   if (across < 0) f_across = -f_across;  // mirror symmetry about the vibration axis
-  const double level = config_.coulomb.friction_coefficient * std::max(normal_force, 0.0);
-  force[0] = level * (c * f_along - s * f_across) + config_.coulomb.viscous * u[0];
-  force[1] = level * (s * f_along + c * f_across) + config_.coulomb.viscous * u[1];
+  const double level = config_->coulomb.friction_coefficient * std::max(normal_force, 0.0);
+  force[0] = level * (c * f_along - s * f_across) + config_->coulomb.viscous * u[0];
+  force[1] = level * (s * f_along + c * f_across) + config_->coulomb.viscous * u[1];
 }
 
 void AveragedFriction::Compute(const mjModel* m, mjData* d, int instance) {
-  const int* out = config_.transmission.output;
-  if (!Refresh(m, instance, /*compare=*/true)) {
+  const int* out = config_->transmission.output;
+  if (!config_.Refresh(m, instance)) {
     if (out[0] >= 0) d->actuator_force[out[0]] = 0;
     if (out[1] >= 0) d->actuator_force[out[1]] = 0;
     return;
   }
-  double amplitude = config_.velocity_amplitude;
-  if (config_.use_ctrl) {
-    amplitude *= std::max(0.0, d->ctrl[m->actuator_ctrladr[config_.transmission.actuator[0]]]);
+  double amplitude = config_->velocity_amplitude;
+  if (config_->use_ctrl) {
+    amplitude *= std::max(0.0, d->ctrl[m->actuator_ctrladr[config_->transmission.actuator[0]]]);
   }
   LawInput in;
   in.time = d->time;
-  in.normal_force = config_.normal.Value(m, d, d->plugin_state + m->plugin_stateadr[instance]);
+  in.normal_force = config_->normal.Value(m, d, d->plugin_state + m->plugin_stateadr[instance]);
   const double v[2] = {d->actuator_velocity[out[0]], d->actuator_velocity[out[1]]};
   in.velocity = std::hypot(v[0], v[1]);
   PlanarResponse response;
@@ -293,7 +275,7 @@ void AveragedFriction::Compute(const mjModel* m, mjData* d, int instance) {
     SolveEndVelocity(context, response.B, response.v_free, u);
     Force(u, in.normal_force, amplitude, force);
   } else {
-    PlanarStickSlipForce(config_.coulomb, in, v, response.v_free, response.B, force);
+    PlanarStickSlipForce(config_->coulomb, in, v, response.v_free, response.B, force);
   }
   d->actuator_force[out[0]] = -force[0];
   d->actuator_force[out[1]] = -force[1];
@@ -304,19 +286,19 @@ void AveragedFriction::ComputeSensor(const mjModel* m, mjData* d, int instance) 
     if (m->sensor_plugin[s] != instance) continue;
     mjtNum* sensor = d->sensordata + m->sensor_adr[s];
     mju_zero(sensor, kSensorDim);
-    if (!Refresh(m, instance, /*compare=*/false)) continue;
-    const int* out = config_.transmission.output;
+    if (!config_.Refresh(m, instance, /*later_in_step=*/true)) continue;
+    const int* out = config_->transmission.output;
     sensor[0] = -d->actuator_force[out[0]];
     sensor[1] = -d->actuator_force[out[1]];
     sensor[4] = d->actuator_velocity[out[0]];
     sensor[5] = d->actuator_velocity[out[1]];
-    sensor[6] = config_.normal.Value(m, d, d->plugin_state + m->plugin_stateadr[instance]);
+    sensor[6] = config_->normal.Value(m, d, d->plugin_state + m->plugin_stateadr[instance]);
   }
 }
 
 void AveragedFriction::Advance(const mjModel* m, mjData* d, int instance) {
-  if (!Refresh(m, instance, /*compare=*/false)) return;
-  config_.normal.Update(m, d, d->plugin_state + m->plugin_stateadr[instance]);
+  if (!config_.Refresh(m, instance, /*later_in_step=*/true)) return;
+  config_->normal.Update(m, d, d->plugin_state + m->plugin_stateadr[instance]);
 }
 
 void AveragedFriction::RegisterPlugin() {
@@ -331,27 +313,18 @@ void AveragedFriction::RegisterPlugin() {
   plugin.nsensordata = +[](const mjModel* m, int instance, int sensor_id) {
     return AveragedFriction::kSensorDim;
   };
-  plugin.init = +[](const mjModel* m, mjData* d, int instance) {
-    std::unique_ptr<AveragedFriction> element = AveragedFriction::Create(m, instance);
-    if (element == nullptr) return -1;
-    d->plugin_data[instance] = reinterpret_cast<uintptr_t>(element.release());
-    return 0;
-  };
-  plugin.destroy = +[](mjData* d, int instance) {
-    delete reinterpret_cast<AveragedFriction*>(d->plugin_data[instance]);
-    d->plugin_data[instance] = 0;
-  };
+  SetInstanceLifecycle<AveragedFriction>(&plugin);
   plugin.reset = +[](const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
     const int n = NormalLoad::StateSize(m, instance);
     for (int i = 0; i < n; ++i) plugin_state[i] = 0;
   };
   plugin.compute = +[](const mjModel* m, mjData* d, int instance, int capability_bit) {
-    auto* element = reinterpret_cast<AveragedFriction*>(d->plugin_data[instance]);
+    auto* element = InstanceOf<AveragedFriction>(d, instance);
     if (capability_bit & mjPLUGIN_ACTUATOR) element->Compute(m, d, instance);
     if (capability_bit & mjPLUGIN_SENSOR) element->ComputeSensor(m, d, instance);
   };
   plugin.advance = +[](const mjModel* m, mjData* d, int instance) {
-    reinterpret_cast<AveragedFriction*>(d->plugin_data[instance])->Advance(m, d, instance);
+    InstanceOf<AveragedFriction>(d, instance)->Advance(m, d, instance);
   };
   mjp_registerPlugin(&plugin);
 }

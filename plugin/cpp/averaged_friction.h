@@ -29,6 +29,8 @@
 
 #include <mujoco/mujoco.h>
 
+#include "plugin_util.h"
+
 #include "friction_law.h"
 #include "planar_friction.h"
 
@@ -73,13 +75,8 @@ class AveragedFriction {
 
  private:
   AveragedFriction(AveragedConfig config, std::string fingerprint);
-  // Re-reads the config when stepped with a model whose attributes differ from the cached ones.
-  bool Refresh(const mjModel* m, int instance, bool compare);
 
-  AveragedConfig config_;
-  std::string fingerprint_;
-  const mjModel* model_ = nullptr;  // last model seen (compared, never dereferenced later)
-  bool valid_ = true;
+  CachedConfig<AveragedConfig> config_;
   std::vector<mjtNum> scratch_;
 };
 

@@ -160,7 +160,7 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
 }
 
 FrictionElement::FrictionElement(FrictionConfig config, std::string fingerprint)
-    : config_(std::move(config)), fingerprint_(std::move(fingerprint)) {}
+    : config_(&FrictionConfig::FromModel, std::move(config), std::move(fingerprint)) {}
 
 std::unique_ptr<FrictionElement> FrictionElement::Create(const mjModel* m, int instance) {
   FrictionConfig config;
@@ -169,88 +169,77 @@ std::unique_ptr<FrictionElement> FrictionElement::Create(const mjModel* m, int i
       new FrictionElement(config, ConfigFingerprint(m, instance)));
 }
 
-bool FrictionElement::Refresh(const mjModel* m, int instance, bool later_in_step) {
-  // The actuator callback compares the config bytes every step (rollout may switch models
-  // between steps); the sensor and advance callbacks of the same step only check the model.
-  if (later_in_step && m == step_model_) return valid_;
-  step_model_ = m;
-  if (ConfigUnchanged(m, instance, fingerprint_)) return valid_;
-  fingerprint_ = ConfigFingerprint(m, instance);
-  valid_ = FrictionConfig::FromModel(m, instance, &config_);
-  return valid_;
-}
-
 LawInput FrictionElement::Input(const mjModel* m, const mjData* d, double velocity) const {
   LawInput in;
   in.velocity = velocity;
-  in.position = d->actuator_length[config_.output];
+  in.position = d->actuator_length[config_->output];
   in.time = d->time;
-  in.normal_force = config_.law.normal_force;
-  if (config_.normal_sensor >= 0) {
-    const mjtNum value = d->sensordata[m->sensor_adr[config_.normal_sensor] +
-                                       config_.normal_component];
-    in.normal_force += config_.normal_gain * value;
+  in.normal_force = config_->law.normal_force;
+  if (config_->normal_sensor >= 0) {
+    const mjtNum value = d->sensordata[m->sensor_adr[config_->normal_sensor] +
+                                       config_->normal_component];
+    in.normal_force += config_->normal_gain * value;
   }
   return in;
 }
 
 void FrictionElement::Compute(const mjModel* m, mjData* d, int instance) {
-  if (!Refresh(m, instance, /*later_in_step=*/false)) {
-    d->actuator_force[config_.output] = 0;
+  if (!config_.Refresh(m, instance)) {
+    d->actuator_force[config_->output] = 0;
     return;
   }
-  const LawParameters& p = config_.law;
-  const LawInput in = Input(m, d, d->actuator_velocity[config_.output]);
+  const LawParameters& p = config_->law;
+  const LawInput in = Input(m, d, d->actuator_velocity[config_->output]);
   double friction;
   if (HasDeflection(p.law)) {
-    friction = StateForce(p, in, d->act[config_.act_address]);
+    friction = StateForce(p, in, d->act[config_->act_address]);
   } else {
     // Rigid Coulomb: the force that stops the transmission within this step, if admissible.
-    const StepResponse response = ComputeStepResponse(m, d, config_.output, &scratch_);
+    const StepResponse response = ComputeStepResponse(m, d, config_->output, &scratch_);
     const double stick_force =
         response.inverse_mass > 0
             ? response.velocity_free / (m->opt.timestep * response.inverse_mass)
             : 0.0;
     friction = StickSlipForce(p, in, stick_force);
   }
-  d->actuator_force[config_.output] = -friction;
+  d->actuator_force[config_->output] = -friction;
 }
 
 void FrictionElement::ComputeSensor(const mjModel* m, mjData* d, int instance) {
   for (int s = 0; s < m->nsensor; ++s) {
     if (m->sensor_plugin[s] != instance) continue;
     mjtNum* out = d->sensordata + m->sensor_adr[s];
-    if (!Refresh(m, instance, /*later_in_step=*/true)) {
+    if (!config_.Refresh(m, instance, /*later_in_step=*/true)) {
       mju_zero(out, kSensorDim);
       continue;
     }
-    const LawInput in = Input(m, d, d->actuator_velocity[config_.output]);
-    const double friction = -d->actuator_force[config_.output];
+    const LawInput in = Input(m, d, d->actuator_velocity[config_->output]);
+    const double friction = -d->actuator_force[config_->output];
     out[0] = friction;
-    out[1] = HasDeflection(config_.law.law) ? d->act[config_.act_address] : 0.0;
+    out[1] = HasDeflection(config_->law.law) ? d->act[config_->act_address] : 0.0;
     out[2] = in.velocity;
-    out[3] = CoulombLevel(config_.law, in, 0) /
-             (config_.law.friction_coefficient > 0 ? config_.law.friction_coefficient : 1.0);
-    out[4] = config_.sensor_lag > 0 ? d->plugin_state[m->plugin_stateadr[instance]] : friction;
+    out[3] = CoulombLevel(config_->law, in, 0) /
+             (config_->law.friction_coefficient > 0 ? config_->law.friction_coefficient : 1.0);
+    out[4] = config_->sensor_lag > 0 ? d->plugin_state[m->plugin_stateadr[instance]] : friction;
   }
 }
 
 void FrictionElement::Advance(const mjModel* m, mjData* d, int instance) {
-  if (!Refresh(m, instance, /*later_in_step=*/true)) return;
+  if (!config_.Refresh(m, instance, /*later_in_step=*/true)) return;
   const double dt = m->opt.timestep;
-  if (config_.sensor_lag > 0) {
+  if (config_->sensor_lag > 0) {
     // Exact first-order lag over the step, driven by this step's force.
     mjtNum* lagged = d->plugin_state + m->plugin_stateadr[instance];
-    const double friction = -d->actuator_force[config_.output];
-    *lagged += (friction - *lagged) * -std::expm1(-dt / config_.sensor_lag);
+    const double friction = -d->actuator_force[config_->output];
+    *lagged += (friction - *lagged) * -std::expm1(-dt / config_->sensor_lag);
   }
-  if (!HasDeflection(config_.law.law)) return;
+  if (!HasDeflection(config_->law.law)) return;
   // z update with the velocity *after* this step's integration (see header).
-  LawInput in = Input(m, d, TransmissionVelocity(m, d, config_.output));
+  LawInput in = Input(m, d, TransmissionVelocity(m, d, config_->output));
   in.time = d->time - 0.5 * dt;  // mid-step: time has already advanced
   in.position += 0.5 * dt * in.velocity;
-  mjtNum* z = d->act + config_.act_address;
-  *z = AdvanceDeflection(config_.law, in, *z, dt);
+  mjtNum* z = d->act + config_->act_address;
+  *z = AdvanceDeflection(config_->law, in, *z, dt);
 }
 
 int FrictionElement::StateSize(const mjModel* m, int instance) {
@@ -272,28 +261,19 @@ void FrictionElement::RegisterPlugin() {
   plugin.nsensordata = +[](const mjModel* m, int instance, int sensor_id) {
     return FrictionElement::kSensorDim;
   };
-  plugin.init = +[](const mjModel* m, mjData* d, int instance) {
-    std::unique_ptr<FrictionElement> element = FrictionElement::Create(m, instance);
-    if (element == nullptr) return -1;
-    d->plugin_data[instance] = reinterpret_cast<uintptr_t>(element.release());
-    return 0;
-  };
-  plugin.destroy = +[](mjData* d, int instance) {
-    delete reinterpret_cast<FrictionElement*>(d->plugin_data[instance]);
-    d->plugin_data[instance] = 0;
-  };
+  SetInstanceLifecycle<FrictionElement>(&plugin);
   plugin.reset = +[](const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
     // The lagged force starts at 0 like the deflection; nothing else to reset.
     const int n = FrictionElement::StateSize(m, instance);
     for (int i = 0; i < n; ++i) plugin_state[i] = 0;
   };
   plugin.compute = +[](const mjModel* m, mjData* d, int instance, int capability_bit) {
-    auto* element = reinterpret_cast<FrictionElement*>(d->plugin_data[instance]);
+    auto* element = InstanceOf<FrictionElement>(d, instance);
     if (capability_bit & mjPLUGIN_ACTUATOR) element->Compute(m, d, instance);
     if (capability_bit & mjPLUGIN_SENSOR) element->ComputeSensor(m, d, instance);
   };
   plugin.advance = +[](const mjModel* m, mjData* d, int instance) {
-    reinterpret_cast<FrictionElement*>(d->plugin_data[instance])->Advance(m, d, instance);
+    InstanceOf<FrictionElement>(d, instance)->Advance(m, d, instance);
   };
   mjp_registerPlugin(&plugin);
 }

@@ -16,6 +16,8 @@
 
 #include <mujoco/mujoco.h>
 
+#include "plugin_util.h"
+
 #include "friction_law.h"
 
 namespace vibrofriction {
@@ -49,14 +51,9 @@ class FrictionElement {
 
  private:
   explicit FrictionElement(FrictionConfig config, std::string fingerprint);
-  // Re-reads the config when stepped with a model whose attributes differ from the cached ones.
-  bool Refresh(const mjModel* m, int instance, bool later_in_step);
   LawInput Input(const mjModel* m, const mjData* d, double velocity) const;
 
-  FrictionConfig config_;
-  std::string fingerprint_;
-  bool valid_ = true;
-  const mjModel* step_model_ = nullptr;  // model of this step's actuator callback
+  CachedConfig<FrictionConfig> config_;
   std::vector<mjtNum> scratch_;
 };
 

@@ -350,7 +350,7 @@ bool PlanarConfig::FromModel(const mjModel* m, int instance, PlanarConfig* confi
 // ---- PlanarFriction ------------------------------------------------------------------------------
 
 PlanarFriction::PlanarFriction(PlanarConfig config, std::string fingerprint)
-    : config_(std::move(config)), fingerprint_(std::move(fingerprint)) {}
+    : config_(&PlanarConfig::FromModel, std::move(config), std::move(fingerprint)) {}
 
 std::unique_ptr<PlanarFriction> PlanarFriction::Create(const mjModel* m, int instance) {
   PlanarConfig config;
@@ -359,45 +359,27 @@ std::unique_ptr<PlanarFriction> PlanarFriction::Create(const mjModel* m, int ins
       new PlanarFriction(config, ConfigFingerprint(m, instance)));
 }
 
-bool PlanarFriction::Refresh(const mjModel* m, int instance, bool compare) {
-  // The config is compared byte for byte once a step (in Compute, the first callback of a
-  // step), in place: the averaged table makes it kilobytes long. Within a step the model
-  // cannot change, so the sensor and advance callbacks only check the model pointer.
-  if (!compare && m == model_) return valid_;
-  model_ = m;
-  const int begin = m->plugin_attradr[instance];
-  const int end = instance + 1 < m->nplugin ? m->plugin_attradr[instance + 1] : m->npluginattr;
-  const size_t size = static_cast<size_t>(end - begin);
-  if (size == fingerprint_.size() &&
-      std::memcmp(m->plugin_attr + begin, fingerprint_.data(), size) == 0) {
-    return valid_;
-  }
-  fingerprint_.assign(m->plugin_attr + begin, m->plugin_attr + end);
-  valid_ = PlanarConfig::FromModel(m, instance, &config_);
-  return valid_;
-}
-
 LawInput PlanarFriction::Input(const mjModel* m, const mjData* d, int instance) const {
   LawInput in;
   in.time = d->time;
-  in.normal_force = config_.normal.Value(m, d, d->plugin_state + m->plugin_stateadr[instance]);
+  in.normal_force = config_->normal.Value(m, d, d->plugin_state + m->plugin_stateadr[instance]);
   return in;
 }
 
 void PlanarFriction::Compute(const mjModel* m, mjData* d, int instance) {
-  const int* out = config_.transmission.output;
-  if (!Refresh(m, instance, /*compare=*/true)) {
+  const int* out = config_->transmission.output;
+  if (!config_.Refresh(m, instance)) {
     if (out[0] >= 0) d->actuator_force[out[0]] = 0;
     if (out[1] >= 0) d->actuator_force[out[1]] = 0;
     return;
   }
-  const LawParameters& p = config_.law;
+  const LawParameters& p = config_->law;
   LawInput in = Input(m, d, instance);
   const double v[2] = {d->actuator_velocity[out[0]], d->actuator_velocity[out[1]]};
   in.velocity = std::hypot(v[0], v[1]);
   double force[2];
   if (HasDeflection(p.law)) {
-    const double z[2] = {d->act[config_.act_address[0]], d->act[config_.act_address[1]]};
+    const double z[2] = {d->act[config_->act_address[0]], d->act[config_->act_address[1]]};
     PlanarStateForce(p, in, v, z, force);
   } else {
     PlanarResponse response;
@@ -412,39 +394,39 @@ void PlanarFriction::ComputeSensor(const mjModel* m, mjData* d, int instance) {
   for (int s = 0; s < m->nsensor; ++s) {
     if (m->sensor_plugin[s] != instance) continue;
     mjtNum* sensor = d->sensordata + m->sensor_adr[s];
-    if (!Refresh(m, instance, /*compare=*/false)) {
+    if (!config_.Refresh(m, instance, /*later_in_step=*/true)) {
       mju_zero(sensor, kSensorDim);
       continue;
     }
-    const int* out = config_.transmission.output;
+    const int* out = config_->transmission.output;
     const LawInput in = Input(m, d, instance);
-    const bool state = HasDeflection(config_.law.law);
+    const bool state = HasDeflection(config_->law.law);
     sensor[0] = -d->actuator_force[out[0]];
     sensor[1] = -d->actuator_force[out[1]];
-    sensor[2] = state ? d->act[config_.act_address[0]] : 0.0;
-    sensor[3] = state ? d->act[config_.act_address[1]] : 0.0;
+    sensor[2] = state ? d->act[config_->act_address[0]] : 0.0;
+    sensor[3] = state ? d->act[config_->act_address[1]] : 0.0;
     sensor[4] = d->actuator_velocity[out[0]];
     sensor[5] = d->actuator_velocity[out[1]];
-    const double mu = config_.law.friction_coefficient;
-    sensor[6] = CoulombLevel(config_.law, in, 0) / (mu > 0 ? mu : 1.0);
+    const double mu = config_->law.friction_coefficient;
+    sensor[6] = CoulombLevel(config_->law, in, 0) / (mu > 0 ? mu : 1.0);
   }
 }
 
 void PlanarFriction::Advance(const mjModel* m, mjData* d, int instance) {
-  if (!Refresh(m, instance, /*compare=*/false)) return;
+  if (!config_.Refresh(m, instance, /*later_in_step=*/true)) return;
   // This step's contacts give the normal load of the next step (and of this z update, as the
   // sensor input does in vibrofriction.friction).
-  config_.normal.Update(m, d, d->plugin_state + m->plugin_stateadr[instance]);
-  if (!HasDeflection(config_.law.law)) return;
+  config_->normal.Update(m, d, d->plugin_state + m->plugin_stateadr[instance]);
+  if (!HasDeflection(config_->law.law)) return;
   const double dt = m->opt.timestep;
-  const int* out = config_.transmission.output;
+  const int* out = config_->transmission.output;
   LawInput in = Input(m, d, instance);
   in.time = d->time - 0.5 * dt;  // mid-step: time has already advanced
   const double v[2] = {TransmissionVelocity(m, d, out[0]), TransmissionVelocity(m, d, out[1])};
-  double z[2] = {d->act[config_.act_address[0]], d->act[config_.act_address[1]]};
-  AdvancePlanarDeflection(config_.law, in, v, z, dt);
-  d->act[config_.act_address[0]] = z[0];
-  d->act[config_.act_address[1]] = z[1];
+  double z[2] = {d->act[config_->act_address[0]], d->act[config_->act_address[1]]};
+  AdvancePlanarDeflection(config_->law, in, v, z, dt);
+  d->act[config_->act_address[0]] = z[0];
+  d->act[config_->act_address[1]] = z[1];
 }
 
 void PlanarFriction::RegisterPlugin() {
@@ -459,27 +441,18 @@ void PlanarFriction::RegisterPlugin() {
   plugin.nsensordata = +[](const mjModel* m, int instance, int sensor_id) {
     return PlanarFriction::kSensorDim;
   };
-  plugin.init = +[](const mjModel* m, mjData* d, int instance) {
-    std::unique_ptr<PlanarFriction> element = PlanarFriction::Create(m, instance);
-    if (element == nullptr) return -1;
-    d->plugin_data[instance] = reinterpret_cast<uintptr_t>(element.release());
-    return 0;
-  };
-  plugin.destroy = +[](mjData* d, int instance) {
-    delete reinterpret_cast<PlanarFriction*>(d->plugin_data[instance]);
-    d->plugin_data[instance] = 0;
-  };
+  SetInstanceLifecycle<PlanarFriction>(&plugin);
   plugin.reset = +[](const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
     const int n = NormalLoad::StateSize(m, instance);
     for (int i = 0; i < n; ++i) plugin_state[i] = 0;  // no contact force before the first step
   };
   plugin.compute = +[](const mjModel* m, mjData* d, int instance, int capability_bit) {
-    auto* element = reinterpret_cast<PlanarFriction*>(d->plugin_data[instance]);
+    auto* element = InstanceOf<PlanarFriction>(d, instance);
     if (capability_bit & mjPLUGIN_ACTUATOR) element->Compute(m, d, instance);
     if (capability_bit & mjPLUGIN_SENSOR) element->ComputeSensor(m, d, instance);
   };
   plugin.advance = +[](const mjModel* m, mjData* d, int instance) {
-    reinterpret_cast<PlanarFriction*>(d->plugin_data[instance])->Advance(m, d, instance);
+    InstanceOf<PlanarFriction>(d, instance)->Advance(m, d, instance);
   };
   mjp_registerPlugin(&plugin);
 }

@@ -29,6 +29,8 @@
 
 #include <mujoco/mujoco.h>
 
+#include "plugin_util.h"
+
 #include "friction_law.h"
 
 namespace vibrofriction {
@@ -100,14 +102,9 @@ class PlanarFriction {
 
  private:
   PlanarFriction(PlanarConfig config, std::string fingerprint);
-  // Re-reads the config when stepped with a model whose attributes differ from the cached ones.
-  bool Refresh(const mjModel* m, int instance, bool compare);
   LawInput Input(const mjModel* m, const mjData* d, int instance) const;
 
-  PlanarConfig config_;
-  std::string fingerprint_;
-  const mjModel* model_ = nullptr;  // last model seen (compared, never dereferenced later)
-  bool valid_ = true;
+  CachedConfig<PlanarConfig> config_;
   std::vector<mjtNum> scratch_;
 };
 

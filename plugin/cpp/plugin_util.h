@@ -3,7 +3,10 @@
 #ifndef VIBROFRICTION_PLUGIN_UTIL_H_
 #define VIBROFRICTION_PLUGIN_UTIL_H_
 
+#include <cstdint>
+#include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <mujoco/mujoco.h>
@@ -22,6 +25,58 @@ std::string ConfigFingerprint(const mjModel* m, int instance);
 // True when the instance's config bytes equal `fingerprint`; allocates nothing (called from
 // every compute/advance callback).
 bool ConfigUnchanged(const mjModel* m, int instance, const std::string& fingerprint);
+
+// The parsed config of one plugin instance, re-read when stepped with a model whose config
+// bytes differ (rollout and batch can step one mjData with several models; a cached config
+// would silently keep the first model's values). The bytes are compared in the first callback
+// of a step; later callbacks of the same step (later_in_step) only check the model pointer.
+template <class Config>
+class CachedConfig {
+ public:
+  using Reader = bool (*)(const mjModel* m, int instance, Config* config);
+  CachedConfig(Reader read, Config config, std::string fingerprint)
+      : read_(read), config_(std::move(config)), fingerprint_(std::move(fingerprint)) {}
+
+  // False when the config of `m` is invalid (the reader has warned, naming the attribute).
+  bool Refresh(const mjModel* m, int instance, bool later_in_step = false) {
+    if (later_in_step && m == model_) return valid_;
+    model_ = m;
+    if (ConfigUnchanged(m, instance, fingerprint_)) return valid_;
+    fingerprint_ = ConfigFingerprint(m, instance);
+    valid_ = read_(m, instance, &config_);
+    return valid_;
+  }
+  const Config& operator*() const { return config_; }
+  const Config* operator->() const { return &config_; }
+
+ private:
+  Reader read_;
+  Config config_;
+  std::string fingerprint_;
+  const mjModel* model_ = nullptr;  // compared, never dereferenced
+  bool valid_ = true;
+};
+
+// init/destroy callbacks for a plugin class T with `static std::unique_ptr<T> Create(m, i)`:
+// one T per instance in mjData.plugin_data.
+template <class T>
+void SetInstanceLifecycle(mjpPlugin* plugin) {
+  plugin->init = +[](const mjModel* m, mjData* d, int instance) {
+    std::unique_ptr<T> object = T::Create(m, instance);
+    if (object == nullptr) return -1;
+    d->plugin_data[instance] = reinterpret_cast<uintptr_t>(object.release());
+    return 0;
+  };
+  plugin->destroy = +[](mjData* d, int instance) {
+    delete reinterpret_cast<T*>(d->plugin_data[instance]);
+    d->plugin_data[instance] = 0;
+  };
+}
+
+template <class T>
+T* InstanceOf(mjData* d, int instance) {
+  return reinterpret_cast<T*>(d->plugin_data[instance]);
+}
 
 // The single actuator backed by `instance`, or -1 (with a warning) if none or several.
 int FindActuator(const mjModel* m, int instance, const char* plugin);

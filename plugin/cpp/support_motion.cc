@@ -69,7 +69,7 @@ double MotionConfig::Displacement(double t, double amplitude_scale) const {
 }
 
 SupportMotion::SupportMotion(MotionConfig config, std::string fingerprint)
-    : config_(std::move(config)), fingerprint_(std::move(fingerprint)) {}
+    : config_(&MotionConfig::FromModel, std::move(config), std::move(fingerprint)) {}
 
 std::unique_ptr<SupportMotion> SupportMotion::Create(const mjModel* m, int instance) {
   MotionConfig config;
@@ -77,24 +77,17 @@ std::unique_ptr<SupportMotion> SupportMotion::Create(const mjModel* m, int insta
   return std::unique_ptr<SupportMotion>(new SupportMotion(config, ConfigFingerprint(m, instance)));
 }
 
-bool SupportMotion::Refresh(const mjModel* m, int instance) {
-  if (ConfigUnchanged(m, instance, fingerprint_)) return valid_;
-  fingerprint_ = ConfigFingerprint(m, instance);
-  valid_ = MotionConfig::FromModel(m, instance, &config_);
-  return valid_;
-}
-
 void SupportMotion::Compute(const mjModel* m, mjData* d, int instance) {
-  const int out = config_.output;
-  if (!Refresh(m, instance)) {
+  const int out = config_->output;
+  if (!config_.Refresh(m, instance)) {
     d->actuator_force[out] = 0;
     return;
   }
   const double dt = m->opt.timestep;
-  const double scale = config_.use_ctrl ? d->ctrl[config_.actuator] : 1.0;
+  const double scale = config_->use_ctrl ? d->ctrl[config_->actuator] : 1.0;
   // Position target at the end of the step; the semi-implicit position update
   // s_{n+1} = s_n + dt v_{n+1} then lands on it (no drift in position or phase).
-  const double target = m->actuator_length0[out] + config_.Displacement(d->time + dt, scale);
+  const double target = m->actuator_length0[out] + config_->Displacement(d->time + dt, scale);
   const double velocity_target = (target - d->actuator_length[out]) / dt;
   const StepResponse response = ComputeStepResponse(m, d, out, &scratch_);
   d->actuator_force[out] = response.inverse_mass > 0
@@ -111,19 +104,10 @@ void SupportMotion::RegisterPlugin() {
   plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
   plugin.attributes = kAttributes;
   plugin.nstate = +[](const mjModel* m, int instance) { return 0; };
-  plugin.init = +[](const mjModel* m, mjData* d, int instance) {
-    std::unique_ptr<SupportMotion> motion = SupportMotion::Create(m, instance);
-    if (motion == nullptr) return -1;
-    d->plugin_data[instance] = reinterpret_cast<uintptr_t>(motion.release());
-    return 0;
-  };
-  plugin.destroy = +[](mjData* d, int instance) {
-    delete reinterpret_cast<SupportMotion*>(d->plugin_data[instance]);
-    d->plugin_data[instance] = 0;
-  };
+  SetInstanceLifecycle<SupportMotion>(&plugin);
   plugin.reset = +[](const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {};
   plugin.compute = +[](const mjModel* m, mjData* d, int instance, int capability_bit) {
-    reinterpret_cast<SupportMotion*>(d->plugin_data[instance])->Compute(m, d, instance);
+    InstanceOf<SupportMotion>(d, instance)->Compute(m, d, instance);
   };
   mjp_registerPlugin(&plugin);
 }

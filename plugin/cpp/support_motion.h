@@ -18,6 +18,8 @@
 
 #include <mujoco/mujoco.h>
 
+#include "plugin_util.h"
+
 namespace vibrofriction {
 
 struct MotionConfig {
@@ -43,11 +45,8 @@ class SupportMotion {
 
  private:
   SupportMotion(MotionConfig config, std::string fingerprint);
-  bool Refresh(const mjModel* m, int instance);
 
-  MotionConfig config_;
-  std::string fingerprint_;
-  bool valid_ = true;
+  CachedConfig<MotionConfig> config_;
   std::vector<mjtNum> scratch_;
 };
 
