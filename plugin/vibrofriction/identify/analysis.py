@@ -91,7 +91,9 @@ def _binned(name: str, unit: str, values: np.ndarray, residual: np.ndarray,
     counts = np.bincount(index, minlength=len(edges) - 1)
     sums = np.bincount(index, weights=residual, minlength=len(edges) - 1)
     means = np.divide(sums, counts, out=np.zeros_like(sums), where=counts > 0)
-    centers = 0.5 * (edges[1:] + edges[:-1])
+    # Each bin at the mean regressor value of its samples (quantile bins may be very uneven).
+    centers = np.divide(np.bincount(index, weights=values, minlength=len(edges) - 1), counts,
+                        out=0.5 * (edges[1:] + edges[:-1]), where=counts > 0)
     total = float(np.sum((residual - residual.mean()) ** 2))
     between = float(np.sum(counts * (means - residual.mean()) ** 2))
     keep = counts > 0

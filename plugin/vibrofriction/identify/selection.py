@@ -411,7 +411,7 @@ def _exposing_regressor(effect: str, analysis: ResidualAnalysis) -> str:
         "viscous": "relative_velocity", "stribeck": "relative_velocity",
         "asymmetry": "relative_velocity", "position_ripple": "position",
         "normal_force_modulation": "support_phase", "drive_damping": "support_phase",
-        "sensor_lag": "support_phase", "force_offset": "time",
+        "sensor_lag": "support_phase", "force_offset": "relative_velocity",
     }[effect]
     if preferred in analysis.binned:
         return preferred
