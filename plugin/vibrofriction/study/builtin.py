@@ -505,9 +505,9 @@ def comparison_table(result: Comparison) -> str:
     coarse = result.config.ladder_steps[0]
     head = ("| variant | MuJoCo element | target | "
             + " | ".join(f"F_dv/F_ds κ={k:g}" for k in shown)
-            + f" | error vs target at T/{coarse} | dt for 1 % (own) | dt for 1 % (target) | "
-            "CPU (wall) per run at that dt |")
-    sep = "|" + "---|" * (7 + len(shown))
+            + f" | F_ds (N) | error vs target at T/{coarse} | dt for 1 % (own) | "
+            "dt for 1 % (target) | CPU (wall) per run at that dt |")
+    sep = "|" + "---|" * (8 + len(shown))
     lines = [head, sep]
     for row in result.rows:
         worst_coarse = max(row.errors_vs_target[k][0] for k in row.errors_vs_target)
@@ -520,7 +520,7 @@ def comparison_table(result: Comparison) -> str:
             for k in shown)
         lines.append(
             f"| {row.variant} | {row.element} | {row.target} | {ratios} | "
-            f"{worst_coarse * 100:.2g} % | {_us(row.dt_own_s)} | {_us(row.dt_target_s)} | "
+            f"{result.static.get(row.variant, math.nan):.3g} | {worst_coarse * 100:.2g} % | {_us(row.dt_own_s)} | {_us(row.dt_target_s)} | "
             f"{_s(cpu)} ({_s(wall)}){wall_note} |")
     return "\n".join(lines)
 
@@ -561,7 +561,9 @@ def comparison_markdown(result: Comparison) -> str:
 
 The rig of Figs. 7-12 (f = {f:g} Hz, v_d = 0.5 mm/s, F_N = 55.2 N, mu = 0.2, k_t = 80 N/um,
 k_d = 1e6 N/m) with each friction element in turn. F_dv/F_ds on the master grid is at
-dt = T/({c.master_steps} + 0.382); "±" marks a friction force that changes sign.
+dt = T/({c.master_steps} + 0.382); "±" marks a friction force that changes sign (for the
+built-in elements F_F = F_d - m a); F_ds is the mean drive force without vibration (mu F_N =
+{result.static.get("plugin-coulomb", math.nan):.3g} N for a friction element that holds).
 
 Timestep study: mean drive force over whole periods at kappa_v = {', '.join(f'{k:g}' for k in
 c.operating_kappas)} on the ladder dt = {ladder} µs (T/(N + 0.382), N = {', '.join(str(n) for n

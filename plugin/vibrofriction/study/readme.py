@@ -9,6 +9,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from .claims import cell
+
 KEY_FIGURES = (
     ("master_curves.png", "Master curves of the four laws with their kinematic limits"),
     ("fig08_traces_va0.75.png", "Fig. 8: reduction without a sign change (Dahl) at "
@@ -40,7 +42,7 @@ def _claims_table(claims: dict) -> list[str]:
     lines = ["| # | claim (paper) | computed | holds |", "|---|---|---|---|"]
     for i, c in enumerate(claims["claims"], 1):
         holds = {"no": "**no**", "partly": "*partly*"}.get(c["holds"], c["holds"])
-        lines.append(f"| {i} | {c['paper']} | {c['computed']} | {holds} |")
+        lines.append(f"| {i} | {cell(c['paper'])} | {cell(c['computed'])} | {holds} |")
     return lines
 
 
