@@ -6,20 +6,14 @@
 #include <cstring>
 #include <utility>
 
+#include "element_config.h"
 #include "plugin_util.h"
 
 namespace vibrofriction {
 namespace {
 
-constexpr char kMu[] = "mu";
-constexpr char kNormal[] = "normal";
-constexpr char kNormalSensor[] = "normal_sensor";
-constexpr char kNormalGain[] = "normal_gain";
-constexpr char kNormalComponent[] = "normal_component";
-constexpr char kContactGeom1[] = "contact_geom1";
-constexpr char kContactGeom2[] = "contact_geom2";
-constexpr char kViscous[] = "viscous";
-constexpr char kStaticRatio[] = "static_ratio";
+using namespace keys;  // NOLINT: the shared MJCF keys (element_config.h)
+
 constexpr char kVelocityAmplitude[] = "velocity_amplitude";
 constexpr char kAxisAngle[] = "axis_angle";
 constexpr char kUseCtrl[] = "use_ctrl";
@@ -37,8 +31,7 @@ constexpr char kPlugin[] = "vibrofriction.averaged";
 constexpr double kPi = 3.14159265358979323846;
 
 bool Reject(const char* attr, double value, const char* rule) {
-  mju_warning("%s: attribute '%s'=\"%g\" %s", kPlugin, attr, value, rule);
-  return false;
+  return RejectAttribute(kPlugin, attr, value, rule);
 }
 
 // Index i with grid[i] <= x < grid[i+1] (clamped to the last cell) and the weight of i+1.
@@ -158,16 +151,7 @@ bool AveragedConfig::FromModel(const mjModel* m, int instance, AveragedConfig* c
     return Reject(kVelocityAmplitude, c.velocity_amplitude,
                   "must be >= 0 (m/s), the vibration velocity amplitude the table was made for");
   }
-  const char* use_ctrl = mj_getPluginConfig(m, instance, kUseCtrl);
-  if (use_ctrl && use_ctrl[0]) {
-    if (std::strcmp(use_ctrl, "true") == 0) {
-      c.use_ctrl = true;
-    } else if (std::strcmp(use_ctrl, "false") != 0) {
-      mju_warning("%s: attribute 'use_ctrl'=\"%s\" must be \"true\" or \"false\"", kPlugin,
-                  use_ctrl);
-      return false;
-    }
-  }
+  if (!ReadBool(m, instance, kPlugin, kUseCtrl, false, &c.use_ctrl)) return false;
   AveragedTable& t = c.table;
   if (!ReadNumberList(m, instance, kPlugin, kTableXi, &t.xi) ||
       !ReadNumberList(m, instance, kPlugin, kTableAngle, &t.angle) ||

@@ -18,6 +18,7 @@
 
 #include "plugin_util.h"
 
+#include "element_config.h"
 #include "friction_law.h"
 
 namespace vibrofriction {
@@ -27,9 +28,8 @@ struct FrictionConfig {
   int actuator = -1;        // actuator id backed by the instance
   int output = -1;          // its force-output address
   int act_address = -1;     // z lives at act[act_address]
-  int normal_sensor = -1;   // sensor id whose value adds to the normal force, -1: none
-  int normal_component = 0; // component of that sensor
-  double normal_gain = 1.0; // F_N = normal + normal_gain * sensor value
+  NormalLoad normal;        // F_N from the config, a sensor or the contacts of two geoms
+  int lag_state = 0;        // plugin_state offset of the lagged friction force
   double sensor_lag = 0.0;  // first-order lag of the reported friction force (s)
 
   // Reads and validates every attribute; returns false after one mju_warning naming it.
@@ -51,7 +51,7 @@ class FrictionElement {
 
  private:
   explicit FrictionElement(FrictionConfig config, std::string fingerprint);
-  LawInput Input(const mjModel* m, const mjData* d, double velocity) const;
+  LawInput Input(const mjModel* m, const mjData* d, int instance, double velocity) const;
 
   CachedConfig<FrictionConfig> config_;
   std::vector<mjtNum> scratch_;

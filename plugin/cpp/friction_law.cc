@@ -87,14 +87,18 @@ double AdvanceDupont(const LawParameters& p, const LawInput& in, double z, doubl
 
 }  // namespace
 
-double CoulombLevel(const LawParameters& p, const LawInput& in, double direction) {
+double ModulatedNormalForce(const LawParameters& p, const LawInput& in) {
   double normal = in.normal_force;
   if (p.normal_modulation != 0) {
     normal *= 1.0 + p.normal_modulation *
                         std::sin(2 * kPi * p.normal_modulation_frequency * in.time +
                                  p.normal_modulation_phase);
   }
-  double level = p.friction_coefficient * std::max(normal, 0.0);
+  return std::max(normal, 0.0);
+}
+
+double CoulombLevel(const LawParameters& p, const LawInput& in, double direction) {
+  double level = p.friction_coefficient * ModulatedNormalForce(p, in);
   if (direction > 0) level *= 1.0 + p.asymmetry;
   if (direction < 0) level *= 1.0 - p.asymmetry;
   if (p.ripple != 0) {

@@ -49,6 +49,9 @@ struct LawInput {
   double normal_force = 0.0;  // F_N (N) before modulation (config + sensor input)
 };
 
+// Normal force (N, >= 0) after the normal-load modulation.
+double ModulatedNormalForce(const LawParameters& p, const LawInput& in);
+
 // Coulomb level F_c (N) for the direction of motion `direction` (+1 / -1 / 0) with all effects.
 double CoulombLevel(const LawParameters& p, const LawInput& in, double direction);
 

@@ -8,30 +8,13 @@
 #include <utility>
 
 #include "c_api.h"
+#include "element_config.h"
 #include "plugin_util.h"
 
 namespace vibrofriction {
 namespace {
 
-// MJCF config keys (docs/readme_robots.md maps each to its Python name).
-constexpr char kLaw[] = "law";
-constexpr char kMu[] = "mu";
-constexpr char kNormal[] = "normal";
-constexpr char kNormalSensor[] = "normal_sensor";
-constexpr char kNormalGain[] = "normal_gain";
-constexpr char kNormalComponent[] = "normal_component";
-constexpr char kContactGeom1[] = "contact_geom1";
-constexpr char kContactGeom2[] = "contact_geom2";
-constexpr char kStiffness[] = "stiffness";
-constexpr char kAlpha[] = "alpha";
-constexpr char kBreakaway[] = "breakaway";
-constexpr char kSigma1[] = "sigma1";
-constexpr char kViscous[] = "viscous";
-constexpr char kStaticRatio[] = "static_ratio";
-constexpr char kStribeckVelocity[] = "stribeck_velocity";
-constexpr char kNormalModulation[] = "normal_modulation";
-constexpr char kModulationFrequency[] = "modulation_frequency";
-constexpr char kModulationPhase[] = "modulation_phase";
+using namespace keys;  // NOLINT: the shared MJCF keys
 
 const char* const kAttributes[] = {
     kLaw, kMu, kNormal, kNormalSensor, kNormalGain, kNormalComponent, kContactGeom1,
@@ -39,11 +22,6 @@ const char* const kAttributes[] = {
     kStribeckVelocity, kNormalModulation, kModulationFrequency, kModulationPhase};
 
 constexpr char kPlugin[] = "vibrofriction.planar";
-
-bool Reject(const char* plugin, const char* attr, double value, const char* rule) {
-  mju_warning("%s: attribute '%s'=\"%g\" %s", plugin, attr, value, rule);
-  return false;
-}
 
 // World direction of a slide joint's axis at the reference configuration.
 void ReferenceAxis(const mjModel* m, int joint, double axis[3]) {
@@ -59,90 +37,6 @@ void ReferenceAxis(const mjModel* m, int joint, double axis[3]) {
 }  // namespace
 
 // ---- NormalLoad ----------------------------------------------------------------------------------
-
-bool NormalLoad::FromModel(const mjModel* m, int instance, const char* plugin, NormalLoad* out) {
-  NormalLoad n;
-  double component = 0.0;
-  if (!ReadNumber(m, instance, plugin, kNormal, 0.0, &n.normal) ||
-      !ReadNumber(m, instance, plugin, kNormalGain, 1.0, &n.gain) ||
-      !ReadNumber(m, instance, plugin, kNormalComponent, 0.0, &component)) {
-    return false;
-  }
-  if (n.normal < 0) return Reject(plugin, kNormal, n.normal, "must be >= 0 (N)");
-  const char* sensor_name = mj_getPluginConfig(m, instance, kNormalSensor);
-  const char* geom1 = mj_getPluginConfig(m, instance, kContactGeom1);
-  const char* geom2 = mj_getPluginConfig(m, instance, kContactGeom2);
-  const bool has_sensor = sensor_name && sensor_name[0];
-  const bool has_geom1 = geom1 && geom1[0];
-  const bool has_geom2 = geom2 && geom2[0];
-  if (has_sensor && (has_geom1 || has_geom2)) {
-    mju_warning("%s: attributes 'normal_sensor' and 'contact_geom1/2' are both set; use one "
-                "source for the normal load", plugin);
-    return false;
-  }
-  if (has_sensor) {
-    n.sensor = mj_name2id(m, mjOBJ_SENSOR, sensor_name);
-    if (n.sensor < 0) {
-      mju_warning("%s: attribute 'normal_sensor'=\"%s\" names no sensor; give the sensor that "
-                  "measures the normal load a name and use it here", plugin, sensor_name);
-      return false;
-    }
-    n.component = static_cast<int>(component);
-    if (n.component != component || n.component < 0 || n.component >= m->sensor_dim[n.sensor]) {
-      return Reject(plugin, kNormalComponent, component,
-                    "must be a whole number below the sensor's dimension");
-    }
-  }
-  if (has_geom1 != has_geom2) {
-    mju_warning("%s: only one of 'contact_geom1' and 'contact_geom2' is set; name both geoms "
-                "whose contact carries the normal load", plugin);
-    return false;
-  }
-  if (has_geom1) {
-    n.geom1 = mj_name2id(m, mjOBJ_GEOM, geom1);
-    n.geom2 = mj_name2id(m, mjOBJ_GEOM, geom2);
-    if (n.geom1 < 0 || n.geom2 < 0) {
-      mju_warning("%s: attribute '%s'=\"%s\" names no geom; use the name of a geom of the "
-                  "sliding body and of its support", plugin,
-                  n.geom1 < 0 ? kContactGeom1 : kContactGeom2, n.geom1 < 0 ? geom1 : geom2);
-      return false;
-    }
-    if (n.geom1 == n.geom2) {
-      mju_warning("%s: 'contact_geom1' and 'contact_geom2' name the same geom \"%s\"; name the "
-                  "body's geom and the support's geom", plugin, geom1);
-      return false;
-    }
-  }
-  *out = n;
-  return true;
-}
-
-int NormalLoad::StateSize(const mjModel* m, int instance) {
-  const char* geom1 = mj_getPluginConfig(m, instance, kContactGeom1);
-  return geom1 && geom1[0] ? 1 : 0;
-}
-
-double NormalLoad::Value(const mjModel* m, const mjData* d, const mjtNum* state) const {
-  double value = normal;
-  if (sensor >= 0) value += gain * d->sensordata[m->sensor_adr[sensor] + component];
-  if (geom1 >= 0) value += gain * state[0];
-  return value;
-}
-
-void NormalLoad::Update(const mjModel* m, const mjData* d, mjtNum* state) const {
-  if (geom1 < 0) return;
-  double total = 0.0;
-  for (int i = 0; i < d->ncon; ++i) {
-    const mjContact& c = d->contact[i];
-    const bool match = (c.geom[0] == geom1 && c.geom[1] == geom2) ||
-                       (c.geom[0] == geom2 && c.geom[1] == geom1);
-    if (!match || c.efc_address < 0) continue;
-    mjtNum wrench[6];
-    mj_contactForce(m, d, i, wrench);
-    total += wrench[0];  // normal component, >= 0 (pushing)
-  }
-  state[0] = total;
-}
 
 // ---- PlanarTransmission --------------------------------------------------------------------------
 
@@ -316,26 +210,26 @@ bool PlanarConfig::FromModel(const mjModel* m, int instance, PlanarConfig* confi
       return false;
     }
   }
-  if (p.friction_coefficient < 0) return Reject(kPlugin, kMu, p.friction_coefficient, "must be >= 0");
+  if (p.friction_coefficient < 0) return RejectAttribute(kPlugin, kMu, p.friction_coefficient, "must be >= 0");
   if (HasDeflection(p.law) && p.contact_stiffness <= 0) {
-    return Reject(kPlugin, kStiffness, p.contact_stiffness,
+    return RejectAttribute(kPlugin, kStiffness, p.contact_stiffness,
                   "must be > 0 (N/m), e.g. 1e6 for a small part on a plate");
   }
-  if (p.alpha < 0) return Reject(kPlugin, kAlpha, p.alpha, "must be >= 0 (1 is Dahl's usual value)");
+  if (p.alpha < 0) return RejectAttribute(kPlugin, kAlpha, p.alpha, "must be >= 0 (1 is Dahl's usual value)");
   if (!(p.breakaway_ratio > 0 && p.breakaway_ratio < 1)) {
-    return Reject(kPlugin, kBreakaway, p.breakaway_ratio, "must lie in (0, 1), e.g. 0.7");
+    return RejectAttribute(kPlugin, kBreakaway, p.breakaway_ratio, "must lie in (0, 1), e.g. 0.7");
   }
-  if (p.bristle_damping < 0) return Reject(kPlugin, kSigma1, p.bristle_damping, "must be >= 0 (N s/m)");
-  if (p.viscous < 0) return Reject(kPlugin, kViscous, p.viscous, "must be >= 0 (N s/m)");
-  if (p.static_ratio < 1) return Reject(kPlugin, kStaticRatio, p.static_ratio, "must be >= 1");
+  if (p.bristle_damping < 0) return RejectAttribute(kPlugin, kSigma1, p.bristle_damping, "must be >= 0 (N s/m)");
+  if (p.viscous < 0) return RejectAttribute(kPlugin, kViscous, p.viscous, "must be >= 0 (N s/m)");
+  if (p.static_ratio < 1) return RejectAttribute(kPlugin, kStaticRatio, p.static_ratio, "must be >= 1");
   if (p.stribeck_velocity <= 0) {
-    return Reject(kPlugin, kStribeckVelocity, p.stribeck_velocity, "must be > 0 (m/s)");
+    return RejectAttribute(kPlugin, kStribeckVelocity, p.stribeck_velocity, "must be > 0 (m/s)");
   }
   if (!(p.normal_modulation >= 0 && p.normal_modulation < 1)) {
-    return Reject(kPlugin, kNormalModulation, p.normal_modulation, "must lie in [0, 1)");
+    return RejectAttribute(kPlugin, kNormalModulation, p.normal_modulation, "must lie in [0, 1)");
   }
   if (p.normal_modulation_frequency < 0) {
-    return Reject(kPlugin, kModulationFrequency, p.normal_modulation_frequency, "must be >= 0 (Hz)");
+    return RejectAttribute(kPlugin, kModulationFrequency, p.normal_modulation_frequency, "must be >= 0 (Hz)");
   }
   if (!NormalLoad::FromModel(m, instance, kPlugin, &c.normal)) return false;
   p.normal_force = c.normal.normal;

@@ -31,28 +31,11 @@
 
 #include "plugin_util.h"
 
+#include "element_config.h"
 #include "friction_law.h"
 
 namespace vibrofriction {
 
-// Normal-load input shared by the planar and the averaged elements.
-struct NormalLoad {
-  double normal = 0.0;   // constant part (N)
-  double gain = 1.0;     // multiplies the sensor value or the contact force
-  int sensor = -1;       // sensor id, -1: none
-  int component = 0;     // component of that sensor
-  int geom1 = -1;        // contact normal force between geom1 and geom2, -1: none
-  int geom2 = -1;
-
-  // Reads normal, normal_gain, normal_sensor, normal_component, contact_geom1, contact_geom2.
-  static bool FromModel(const mjModel* m, int instance, const char* plugin, NormalLoad* out);
-  static int StateSize(const mjModel* m, int instance);  // 1 when contact geoms are named
-  bool UsesContacts() const { return geom1 >= 0; }
-  // F_N before modulation; `state` is the instance's plugin_state.
-  double Value(const mjModel* m, const mjData* d, const mjtNum* state) const;
-  // Stores the normal force of this step's contacts (call from advance).
-  void Update(const mjModel* m, const mjData* d, mjtNum* state) const;
-};
 
 // The two actuators of a planar instance and their outputs, checked for orthogonality.
 struct PlanarTransmission {

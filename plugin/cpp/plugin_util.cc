@@ -27,6 +27,21 @@ bool ReadNumber(const mjModel* m, int instance, const char* plugin, const char* 
   return true;
 }
 
+bool ReadBool(const mjModel* m, int instance, const char* plugin, const char* attr,
+              bool default_value, bool* out) {
+  const char* text = mj_getPluginConfig(m, instance, attr);
+  if (text == nullptr || text[0] == '\0') {
+    *out = default_value;
+    return true;
+  }
+  if (std::strcmp(text, "true") == 0 || std::strcmp(text, "false") == 0) {
+    *out = text[0] == 't';
+    return true;
+  }
+  mju_warning("%s: attribute '%s'=\"%s\" must be \"true\" or \"false\"", plugin, attr, text);
+  return false;
+}
+
 std::string ConfigFingerprint(const mjModel* m, int instance) {
   const int begin = m->plugin_attradr[instance];
   const int end = instance + 1 < m->nplugin ? m->plugin_attradr[instance + 1] : m->npluginattr;

@@ -18,6 +18,10 @@ namespace vibrofriction {
 bool ReadNumber(const mjModel* m, int instance, const char* plugin, const char* attr,
                 double default_value, double* out);
 
+// Reads a "true"/"false" attribute (missing -> default); warns naming it otherwise.
+bool ReadBool(const mjModel* m, int instance, const char* plugin, const char* attr,
+              bool default_value, bool* out);
+
 // Raw config bytes of an instance: equal bytes <=> equal configuration. Rollout and batch can
 // step one mjData with several models, so plugins compare this each step, not a model pointer.
 std::string ConfigFingerprint(const mjModel* m, int instance);

@@ -42,16 +42,7 @@ bool MotionConfig::FromModel(const mjModel* m, int instance, MotionConfig* confi
     mju_warning("%s: velocity_amplitude is set but frequency is 0; set frequency (Hz)", kPlugin);
     return false;
   }
-  const char* use_ctrl = mj_getPluginConfig(m, instance, kUseCtrl);
-  if (use_ctrl && use_ctrl[0]) {
-    if (std::strcmp(use_ctrl, "true") == 0) {
-      c.use_ctrl = true;
-    } else if (std::strcmp(use_ctrl, "false") != 0) {
-      mju_warning("%s: attribute 'use_ctrl'=\"%s\" must be \"true\" or \"false\"", kPlugin,
-                  use_ctrl);
-      return false;
-    }
-  }
+  if (!ReadBool(m, instance, kPlugin, kUseCtrl, false, &c.use_ctrl)) return false;
   c.actuator = FindActuator(m, instance, kPlugin);
   if (c.actuator < 0) return false;
   c.output = m->actuator_outadr[c.actuator];

@@ -1,0 +1,167 @@
+#include "element_config.h"
+
+#include "plugin_util.h"
+
+namespace vibrofriction {
+
+using namespace keys;  // NOLINT: the MJCF keys read here
+
+bool RejectAttribute(const char* plugin, const char* attr, double value, const char* rule) {
+  mju_warning("%s: attribute '%s'=\"%g\" %s", plugin, attr, value, rule);
+  return false;
+}
+
+bool ReadLawParameters(const mjModel* m, int instance, const char* plugin, LawParameters* out) {
+  LawParameters p = *out;
+  const char* law_name = mj_getPluginConfig(m, instance, kLaw);
+  if (law_name == nullptr || law_name[0] == '\0') {
+    mju_warning("%s: attribute 'law' is missing; add <config key=\"law\" value=\"dahl\"/> "
+                "(one of coulomb, dahl, dupont, lugre)", plugin);
+    return false;
+  }
+  if (!ParseLaw(law_name, &p.law)) {
+    mju_warning("%s: attribute 'law'=\"%s\" is not a friction law; use one of coulomb, dahl, "
+                "dupont, lugre", plugin, law_name);
+    return false;
+  }
+  const struct {
+    const char* attr;
+    double* target;
+    double default_value;
+  } numbers[] = {
+      {kMu, &p.friction_coefficient, 0.2},
+      {kStiffness, &p.contact_stiffness, 8e7},
+      {kAlpha, &p.alpha, 1.0},
+      {kBreakaway, &p.breakaway_ratio, 0.7},
+      {kSigma1, &p.bristle_damping, 0.0},
+      {kViscous, &p.viscous, 0.0},
+      {kStaticRatio, &p.static_ratio, 1.0},
+      {kStribeckVelocity, &p.stribeck_velocity, 1e-3},
+      {kNormalModulation, &p.normal_modulation, 0.0},
+      {kModulationFrequency, &p.normal_modulation_frequency, 0.0},
+      {kModulationPhase, &p.normal_modulation_phase, 0.0},
+  };
+  for (const auto& spec : numbers) {
+    if (!ReadNumber(m, instance, plugin, spec.attr, spec.default_value, spec.target)) {
+      return false;
+    }
+  }
+  if (p.friction_coefficient < 0) {
+    return RejectAttribute(plugin, kMu, p.friction_coefficient, "must be >= 0");
+  }
+  if (HasDeflection(p.law) && p.contact_stiffness <= 0) {
+    return RejectAttribute(plugin, kStiffness, p.contact_stiffness,
+                           "must be > 0 (N/m), e.g. 8e7 for 80 N/um");
+  }
+  if (p.alpha < 0) {
+    return RejectAttribute(plugin, kAlpha, p.alpha, "must be >= 0 (1 is Dahl's usual value)");
+  }
+  if (!(p.breakaway_ratio > 0 && p.breakaway_ratio < 1)) {
+    return RejectAttribute(plugin, kBreakaway, p.breakaway_ratio, "must lie in (0, 1), e.g. 0.7");
+  }
+  if (p.bristle_damping < 0) {
+    return RejectAttribute(plugin, kSigma1, p.bristle_damping, "must be >= 0 (N s/m)");
+  }
+  if (p.viscous < 0) return RejectAttribute(plugin, kViscous, p.viscous, "must be >= 0 (N s/m)");
+  if (p.static_ratio < 1) {
+    return RejectAttribute(plugin, kStaticRatio, p.static_ratio, "must be >= 1");
+  }
+  if (p.stribeck_velocity <= 0) {
+    return RejectAttribute(plugin, kStribeckVelocity, p.stribeck_velocity, "must be > 0 (m/s)");
+  }
+  if (!(p.normal_modulation >= 0 && p.normal_modulation < 1)) {
+    return RejectAttribute(plugin, kNormalModulation, p.normal_modulation, "must lie in [0, 1)");
+  }
+  if (p.normal_modulation_frequency < 0) {
+    return RejectAttribute(plugin, kModulationFrequency, p.normal_modulation_frequency,
+                           "must be >= 0 (Hz)");
+  }
+  *out = p;
+  return true;
+}
+
+bool NormalLoad::FromModel(const mjModel* m, int instance, const char* plugin, NormalLoad* out) {
+  NormalLoad n;
+  double component = 0.0;
+  if (!ReadNumber(m, instance, plugin, kNormal, 0.0, &n.normal) ||
+      !ReadNumber(m, instance, plugin, kNormalGain, 1.0, &n.gain) ||
+      !ReadNumber(m, instance, plugin, kNormalComponent, 0.0, &component)) {
+    return false;
+  }
+  if (n.normal < 0) return RejectAttribute(plugin, kNormal, n.normal, "must be >= 0 (N)");
+  const char* sensor_name = mj_getPluginConfig(m, instance, kNormalSensor);
+  const char* geom1 = mj_getPluginConfig(m, instance, kContactGeom1);
+  const char* geom2 = mj_getPluginConfig(m, instance, kContactGeom2);
+  const bool has_sensor = sensor_name && sensor_name[0];
+  const bool has_geom1 = geom1 && geom1[0];
+  const bool has_geom2 = geom2 && geom2[0];
+  if (has_sensor && (has_geom1 || has_geom2)) {
+    mju_warning("%s: attributes 'normal_sensor' and 'contact_geom1/2' are both set; use one "
+                "source for the normal load", plugin);
+    return false;
+  }
+  if (has_sensor) {
+    n.sensor = mj_name2id(m, mjOBJ_SENSOR, sensor_name);
+    if (n.sensor < 0) {
+      mju_warning("%s: attribute 'normal_sensor'=\"%s\" names no sensor; give the sensor that "
+                  "measures the normal load a name and use it here", plugin, sensor_name);
+      return false;
+    }
+    n.component = static_cast<int>(component);
+    if (n.component != component || n.component < 0 || n.component >= m->sensor_dim[n.sensor]) {
+      return RejectAttribute(plugin, kNormalComponent, component,
+                    "must be a whole number below the sensor's dimension");
+    }
+  }
+  if (has_geom1 != has_geom2) {
+    mju_warning("%s: only one of 'contact_geom1' and 'contact_geom2' is set; name both geoms "
+                "whose contact carries the normal load", plugin);
+    return false;
+  }
+  if (has_geom1) {
+    n.geom1 = mj_name2id(m, mjOBJ_GEOM, geom1);
+    n.geom2 = mj_name2id(m, mjOBJ_GEOM, geom2);
+    if (n.geom1 < 0 || n.geom2 < 0) {
+      mju_warning("%s: attribute '%s'=\"%s\" names no geom; use the name of a geom of the "
+                  "sliding body and of its support", plugin,
+                  n.geom1 < 0 ? kContactGeom1 : kContactGeom2, n.geom1 < 0 ? geom1 : geom2);
+      return false;
+    }
+    if (n.geom1 == n.geom2) {
+      mju_warning("%s: 'contact_geom1' and 'contact_geom2' name the same geom \"%s\"; name the "
+                  "body's geom and the support's geom", plugin, geom1);
+      return false;
+    }
+  }
+  *out = n;
+  return true;
+}
+
+int NormalLoad::StateSize(const mjModel* m, int instance) {
+  const char* geom1 = mj_getPluginConfig(m, instance, kContactGeom1);
+  return geom1 && geom1[0] ? 1 : 0;
+}
+
+double NormalLoad::Value(const mjModel* m, const mjData* d, const mjtNum* state) const {
+  double value = normal;
+  if (sensor >= 0) value += gain * d->sensordata[m->sensor_adr[sensor] + component];
+  if (geom1 >= 0) value += gain * state[0];
+  return value;
+}
+
+void NormalLoad::Update(const mjModel* m, const mjData* d, mjtNum* state) const {
+  if (geom1 < 0) return;
+  double total = 0.0;
+  for (int i = 0; i < d->ncon; ++i) {
+    const mjContact& c = d->contact[i];
+    const bool match = (c.geom[0] == geom1 && c.geom[1] == geom2) ||
+                       (c.geom[0] == geom2 && c.geom[1] == geom1);
+    if (!match || c.efc_address < 0) continue;
+    mjtNum wrench[6];
+    mj_contactForce(m, d, i, wrench);
+    total += wrench[0];  // normal component, >= 0 (pushing)
+  }
+  state[0] = total;
+}
+
+}  // namespace vibrofriction

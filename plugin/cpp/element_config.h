@@ -1,0 +1,66 @@
+// What every friction element (vibrofriction.friction, .planar, .averaged) reads from MJCF:
+// the shared config keys, the law and its parameters, and the normal load.
+#ifndef VIBROFRICTION_ELEMENT_CONFIG_H_
+#define VIBROFRICTION_ELEMENT_CONFIG_H_
+
+#include <mujoco/mujoco.h>
+
+#include "friction_law.h"
+
+namespace vibrofriction {
+
+// MJCF config keys shared by the friction elements (README maps each to its Python name).
+namespace keys {
+inline constexpr char kLaw[] = "law";
+inline constexpr char kMu[] = "mu";
+inline constexpr char kNormal[] = "normal";
+inline constexpr char kNormalSensor[] = "normal_sensor";
+inline constexpr char kNormalGain[] = "normal_gain";
+inline constexpr char kNormalComponent[] = "normal_component";
+inline constexpr char kContactGeom1[] = "contact_geom1";
+inline constexpr char kContactGeom2[] = "contact_geom2";
+inline constexpr char kStiffness[] = "stiffness";
+inline constexpr char kAlpha[] = "alpha";
+inline constexpr char kBreakaway[] = "breakaway";
+inline constexpr char kSigma1[] = "sigma1";
+inline constexpr char kViscous[] = "viscous";
+inline constexpr char kStaticRatio[] = "static_ratio";
+inline constexpr char kStribeckVelocity[] = "stribeck_velocity";
+inline constexpr char kNormalModulation[] = "normal_modulation";
+inline constexpr char kModulationFrequency[] = "modulation_frequency";
+inline constexpr char kModulationPhase[] = "modulation_phase";
+}  // namespace keys
+
+// Warns "<plugin>: attribute '<attr>'="<value>" <rule>" and returns false.
+bool RejectAttribute(const char* plugin, const char* attr, double value, const char* rule);
+
+// Reads `law` and the parameters every law shares (mu, stiffness, alpha, breakaway, sigma1,
+// viscous, static_ratio, stribeck_velocity, normal_modulation, modulation_frequency,
+// modulation_phase), strictly parsed and range-checked. On a bad value warns once, naming the
+// attribute and the fix, and returns false. Leaves the other fields of *p as they are.
+bool ReadLawParameters(const mjModel* m, int instance, const char* plugin, LawParameters* p);
+
+// The normal load F_N = normal + normal_gain * (sensor value, or the normal force of the
+// contacts between contact_geom1 and contact_geom2). Sensors of the acceleration stage and
+// contact forces are the previous step's values: the constraint solve runs after actuation.
+struct NormalLoad {
+  double normal = 0.0;   // constant part (N)
+  double gain = 1.0;     // multiplies the sensor value or the contact force
+  int sensor = -1;       // sensor id, -1: none
+  int component = 0;     // component of that sensor
+  int geom1 = -1;        // contact normal force between geom1 and geom2, -1: none
+  int geom2 = -1;
+
+  // Reads normal, normal_gain, normal_sensor, normal_component, contact_geom1, contact_geom2.
+  static bool FromModel(const mjModel* m, int instance, const char* plugin, NormalLoad* out);
+  static int StateSize(const mjModel* m, int instance);  // 1 when contact geoms are named
+  bool UsesContacts() const { return geom1 >= 0; }
+  // F_N before modulation; `state` is this load's slot in the instance's plugin_state.
+  double Value(const mjModel* m, const mjData* d, const mjtNum* state) const;
+  // Stores the normal force of this step's contacts (call from advance).
+  void Update(const mjModel* m, const mjData* d, mjtNum* state) const;
+};
+
+}  // namespace vibrofriction
+
+#endif  // VIBROFRICTION_ELEMENT_CONFIG_H_

@@ -1,0 +1,99 @@
+"""Normal load of vibrofriction.friction: config, sensor, or the contact force between geoms."""
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+import vibrofriction
+
+BLOCK_KG = 2.0
+GRAVITY = 9.81
+
+SCENE = """
+<mujoco>
+  <option timestep="1e-4" integrator="Euler"/>
+  <extension>
+    <plugin plugin="vibrofriction.friction">
+      <instance name="contact">
+        <config key="law" value="dahl"/>
+        <config key="mu" value="0.3"/>
+        <config key="stiffness" value="1e6"/>
+        {normal}
+        <config key="ripple" value="0.5"/>
+        <config key="ripple_wavelength" value="1e-3"/>
+      </instance>
+    </plugin>
+  </extension>
+  <worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1"/>
+    <body name="block" pos="0 0 0.05">
+      <joint name="slide_x" type="slide" axis="1 0 0"/>
+      <joint name="lift_z" type="slide" axis="0 0 1"/>
+      <geom name="block" type="box" size="0.05 0.05 0.05" mass="{mass}" friction="0 0 0"
+            condim="1"/>
+    </body>
+  </worldbody>
+  <actuator>
+    <plugin name="contact" joint="slide_x" instance="contact" actdim="1"/>
+    <motor name="lift" joint="lift_z"/>
+  </actuator>
+  <sensor>
+    <plugin name="contact_state" instance="contact"/>
+    <actuatorfrc name="lift_force" actuator="lift"/>
+  </sensor>
+</mujoco>
+"""
+
+
+def _model(normal: str) -> mujoco.MjModel:
+    vibrofriction.load()
+    return mujoco.MjModel.from_xml_string(SCENE.format(normal=normal, mass=BLOCK_KG))
+
+
+def _settle(model: mujoco.MjModel, steps: int = 3000, lift_N: float = 0.0) -> mujoco.MjData:
+    data = mujoco.MjData(model)
+    data.ctrl[model.actuator("lift").id] = lift_N
+    for _ in range(steps):
+        mujoco.mj_step(model, data)
+    return data
+
+
+def test_constant_normal_force_is_reported_without_effect_factors():
+    # ripple multiplies the friction level, not the normal force the sensor reports
+    data = _settle(_model('<config key="normal" value="55.2"/>'), steps=10)
+    assert data.sensor("contact_state").data[3] == pytest.approx(55.2, rel=1e-12)
+
+
+def test_normal_force_from_a_sensor_with_gain():
+    # F_N = normal + gain * sensor: a 10 N upward lift read through its force sensor
+    model = _model('<config key="normal" value="30"/><config key="normal_sensor" '
+                   'value="lift_force"/><config key="normal_gain" value="-1"/>')
+    data = _settle(model, steps=10, lift_N=10.0)
+    assert data.sensor("contact_state").data[3] == pytest.approx(20.0, rel=1e-9)
+
+
+def test_normal_force_from_the_contact_between_two_geoms():
+    # the block rests on the floor: the contact carries m g (previous step's value)
+    model = _model('<config key="contact_geom1" value="block"/>'
+                   '<config key="contact_geom2" value="floor"/>')
+    data = _settle(model)
+    normal = data.sensor("contact_state").data[3]
+    assert normal == pytest.approx(BLOCK_KG * GRAVITY, rel=0.02)
+    # lifting with half the weight halves the contact force
+    data = _settle(model, lift_N=0.5 * BLOCK_KG * GRAVITY)
+    assert data.sensor("contact_state").data[3] == pytest.approx(0.5 * BLOCK_KG * GRAVITY, rel=0.02)
+    assert np.isfinite(data.qpos).all()
+
+
+@pytest.mark.parametrize("normal, attribute", [
+    ('<config key="normal_sensor" value="no_such_sensor"/>', "normal_sensor"),
+    ('<config key="contact_geom1" value="block"/>', "contact_geom"),
+    ('<config key="contact_geom1" value="block"/><config key="contact_geom2" value="nowhere"/>',
+     "contact_geom2"),
+    ('<config key="normal_sensor" value="lift_force"/><config key="contact_geom1" value="block"/>'
+     '<config key="contact_geom2" value="floor"/>', "normal_sensor"),
+])
+def test_bad_normal_load_sources_are_named(normal, attribute):
+    with pytest.raises(ValueError, match=attribute):
+        _model(normal)
