@@ -176,61 +176,7 @@ bool ReadNumberList(const mjModel* m, int instance, const char* plugin, const ch
 bool PlanarConfig::FromModel(const mjModel* m, int instance, PlanarConfig* config) {
   PlanarConfig c;
   LawParameters& p = c.law;
-  const char* law_name = mj_getPluginConfig(m, instance, kLaw);
-  if (law_name == nullptr || law_name[0] == '\0') {
-    mju_warning("%s: attribute 'law' is missing; add <config key=\"law\" value=\"dahl\"/> "
-                "(one of coulomb, dahl, dupont, lugre)", kPlugin);
-    return false;
-  }
-  if (!ParseLaw(law_name, &p.law)) {
-    mju_warning("%s: attribute 'law'=\"%s\" is not a friction law; use one of coulomb, dahl, "
-                "dupont, lugre", kPlugin, law_name);
-    return false;
-  }
-  struct Spec {
-    const char* attr;
-    double* target;
-    double default_value;
-  };
-  const Spec numbers[] = {
-      {kMu, &p.friction_coefficient, 0.2},
-      {kStiffness, &p.contact_stiffness, 8e7},
-      {kAlpha, &p.alpha, 1.0},
-      {kBreakaway, &p.breakaway_ratio, 0.7},
-      {kSigma1, &p.bristle_damping, 0.0},
-      {kViscous, &p.viscous, 0.0},
-      {kStaticRatio, &p.static_ratio, 1.0},
-      {kStribeckVelocity, &p.stribeck_velocity, 1e-3},
-      {kNormalModulation, &p.normal_modulation, 0.0},
-      {kModulationFrequency, &p.normal_modulation_frequency, 0.0},
-      {kModulationPhase, &p.normal_modulation_phase, 0.0},
-  };
-  for (const Spec& spec : numbers) {
-    if (!ReadNumber(m, instance, kPlugin, spec.attr, spec.default_value, spec.target)) {
-      return false;
-    }
-  }
-  if (p.friction_coefficient < 0) return RejectAttribute(kPlugin, kMu, p.friction_coefficient, "must be >= 0");
-  if (HasDeflection(p.law) && p.contact_stiffness <= 0) {
-    return RejectAttribute(kPlugin, kStiffness, p.contact_stiffness,
-                  "must be > 0 (N/m), e.g. 1e6 for a small part on a plate");
-  }
-  if (p.alpha < 0) return RejectAttribute(kPlugin, kAlpha, p.alpha, "must be >= 0 (1 is Dahl's usual value)");
-  if (!(p.breakaway_ratio > 0 && p.breakaway_ratio < 1)) {
-    return RejectAttribute(kPlugin, kBreakaway, p.breakaway_ratio, "must lie in (0, 1), e.g. 0.7");
-  }
-  if (p.bristle_damping < 0) return RejectAttribute(kPlugin, kSigma1, p.bristle_damping, "must be >= 0 (N s/m)");
-  if (p.viscous < 0) return RejectAttribute(kPlugin, kViscous, p.viscous, "must be >= 0 (N s/m)");
-  if (p.static_ratio < 1) return RejectAttribute(kPlugin, kStaticRatio, p.static_ratio, "must be >= 1");
-  if (p.stribeck_velocity <= 0) {
-    return RejectAttribute(kPlugin, kStribeckVelocity, p.stribeck_velocity, "must be > 0 (m/s)");
-  }
-  if (!(p.normal_modulation >= 0 && p.normal_modulation < 1)) {
-    return RejectAttribute(kPlugin, kNormalModulation, p.normal_modulation, "must lie in [0, 1)");
-  }
-  if (p.normal_modulation_frequency < 0) {
-    return RejectAttribute(kPlugin, kModulationFrequency, p.normal_modulation_frequency, "must be >= 0 (Hz)");
-  }
+  if (!ReadLawParameters(m, instance, kPlugin, &p)) return false;
   if (!NormalLoad::FromModel(m, instance, kPlugin, &c.normal)) return false;
   p.normal_force = c.normal.normal;
   if (!PlanarTransmission::FromModel(m, instance, kPlugin, /*need_state=*/true, &c.transmission)) {
