@@ -185,7 +185,7 @@ void FrictionElement::RegisterPlugin() {
   };
   SetInstanceLifecycle<FrictionElement>(&plugin);
   plugin.reset = +[](const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
-    // The lagged force starts at 0 like the deflection; nothing else to reset.
+    // The contact normal force and the lagged friction force start at 0, like z.
     const int n = FrictionElement::StateSize(m, instance);
     for (int i = 0; i < n; ++i) plugin_state[i] = 0;
   };
