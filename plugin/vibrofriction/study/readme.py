@@ -68,7 +68,8 @@ def write_readme_section(results: Path, docs: Path, *, figure_prefix: str = "fig
         f"(vibrofriction {claims['versions']['vibrofriction']}, MuJoCo "
         f"{claims['versions']['mujoco']}, {claims['wall_s']:.0f} s on 2 cores); the full "
         "summary with all figures is the `summary.md` that command writes. Figures: "
-        "`scripts/fig_*.py` (one per figure) or `vibrofriction reproduce`.",
+        "`scripts/fig_*.py` (one per figure) or `vibrofriction reproduce`; this section: "
+        "`python scripts/fig_readme.py --results results`.",
         "",
         figures[0], "", figures[1], "",
         "### The paper's claims, with this run's numbers",
