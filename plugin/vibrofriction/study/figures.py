@@ -154,7 +154,8 @@ def plot_master(points: Sequence[MasterPoint], laws: Sequence[str], path: Path, 
     if dahl0 is not None and "dahl" in laws:
         ax.plot(dense, dahl0, ":", color=LAW_COLORS["dahl"], lw=1.2,
                 label=r"Dahl, $u_0 \to 0$")
-    _master_axes(ax, title + "  (x: F_F changes sign)")
+    ax.plot([], [], "kx", ms=5, label="x: F_F changes sign")
+    _master_axes(ax, title)
     ax.legend(fontsize=6.5, ncol=2, loc="lower left")
     return save_figure(fig, path)
 
