@@ -110,8 +110,14 @@ void FrictionElement::Compute(const mjModel* m, mjData* d, int instance) {
   const LawParameters& p = config_->law;
   const LawInput in = Input(m, d, instance, d->actuator_velocity[config_->output]);
   double friction;
-  if (HasDeflection(p.law)) {
-    friction = StateForce(p, in, d->act[config_->act_address]);
+  const double z = d->act[config_->act_address];
+  if (HasDeflection(p.law) && p.bristle_damping == 0 && p.viscous == 0) {
+    friction = StateForce(p, in, z);
+  } else if (HasDeflection(p.law)) {
+    // Damping terms at the end-of-step velocity (see ImplicitStateForce).
+    const StepResponse response = ComputeStepResponse(m, d, config_->output, &scratch_);
+    friction = ImplicitStateForce(p, in, z, response.velocity_free,
+                                  m->opt.timestep * response.inverse_mass);
   } else {
     // Rigid Coulomb: the force that stops the transmission within this step, if admissible.
     const StepResponse response = ComputeStepResponse(m, d, config_->output, &scratch_);

@@ -178,6 +178,33 @@ double StateForce(const LawParameters& p, const LawInput& in, double z) {
          p.viscous * in.velocity + p.force_offset;
 }
 
+namespace {
+
+// sigma1 slope(z) + sigma2 for motion in `direction` at `speed`: the laws are homogeneous in v
+// for a direction, dz/dt = slope v. 0 or less when z lies beyond its steady value.
+double DampingCoefficient(const LawParameters& p, const LawInput& in, double z, double direction,
+                          double speed) {
+  LawInput probe = in;
+  probe.velocity = direction * speed;
+  return p.bristle_damping * DeflectionRate(p, probe, z) / probe.velocity + p.viscous;
+}
+
+}  // namespace
+
+double ImplicitStateForce(const LawParameters& p, const LawInput& in, double z,
+                          double velocity_free, double dt_inverse_mass) {
+  const double elastic = p.contact_stiffness * z + p.force_offset;
+  const double v_trial = velocity_free - dt_inverse_mass * elastic;  // damping off
+  const double speed = std::max(std::fabs(in.velocity), std::fabs(v_trial));
+  const double direction = v_trial != 0 ? Sign(v_trial) : Sign(in.velocity);
+  if (speed == 0) return elastic;
+  const double damping = DampingCoefficient(p, in, z, direction, speed);
+  if (damping <= 0) return StateForce(p, in, z);
+  // F = elastic + damping (v + v_next)/2 with v_next = velocity_free - dt_inverse_mass F.
+  return (elastic + 0.5 * damping * (in.velocity + velocity_free)) /
+         (1.0 + 0.5 * damping * dt_inverse_mass);
+}
+
 double StickSlipForce(const LawParameters& p, const LawInput& in, double stick_force) {
   const double needed = stick_force - p.force_offset;
   const double direction = Sign(needed);
@@ -311,6 +338,50 @@ void PlanarDeflectionRate(const LawParameters& p, const LawInput& in, const doub
     case Law::kCoulomb:
       return;
   }
+}
+
+void PlanarImplicitStateForce(const LawParameters& p, const LawInput& in, const double v[2],
+                              const double z[2], const double v_free[2], const double B[4],
+                              double force[2]) {
+  const double elastic[2] = {p.contact_stiffness * z[0], p.contact_stiffness * z[1]};
+  const double v_trial[2] = {v_free[0] - B[0] * elastic[0] - B[1] * elastic[1],
+                             v_free[1] - B[2] * elastic[0] - B[3] * elastic[1]};
+  double dir[2], trial_speed, speed;
+  const bool moving = Direction(v_trial, dir, &trial_speed);
+  speed = std::max(std::hypot(v[0], v[1]), trial_speed);
+  if (!moving && !Direction(v, dir, &speed)) {
+    force[0] = elastic[0];
+    force[1] = elastic[1];
+    return;
+  }
+  // Damping matrix D: along the direction of motion the secant sigma1 dz/dt / speed (the laws
+  // are homogeneous in v for a direction) + sigma2; across it the bristles follow the motion
+  // (dz/dt = v), D = sigma1 + sigma2. Motion on one axis reduces to ImplicitStateForce.
+  const double probe[2] = {speed * dir[0], speed * dir[1]};
+  double rate[2];
+  PlanarDeflectionRate(p, AtSpeed(in, speed), probe, z, rate);
+  const double along[2] = {p.bristle_damping * rate[0] / speed + p.viscous * dir[0],
+                           p.bristle_damping * rate[1] / speed + p.viscous * dir[1]};
+  if (along[0] * dir[0] + along[1] * dir[1] <= 0) {
+    PlanarStateForce(p, in, v, z, force);
+    return;
+  }
+  const double across = p.bristle_damping + p.viscous;
+  const double perp[2] = {-dir[1], dir[0]};
+  double D[4];
+  for (int i = 0; i < 2; ++i) {
+    for (int j = 0; j < 2; ++j) D[2 * i + j] = along[i] * dir[j] + across * perp[i] * perp[j];
+  }
+  // Trapezoidal: F = elastic + D (v + v_next)/2, v_next = v_free - B F
+  //   => (I + D B / 2) F = elastic + D (v + v_free) / 2.
+  const double mean[2] = {v[0] + v_free[0], v[1] + v_free[1]};
+  const double rhs[2] = {elastic[0] + 0.5 * (D[0] * mean[0] + D[1] * mean[1]),
+                         elastic[1] + 0.5 * (D[2] * mean[0] + D[3] * mean[1])};
+  const double A[4] = {1 + 0.5 * (D[0] * B[0] + D[1] * B[2]), 0.5 * (D[0] * B[1] + D[1] * B[3]),
+                       0.5 * (D[2] * B[0] + D[3] * B[2]), 1 + 0.5 * (D[2] * B[1] + D[3] * B[3])};
+  const double det = A[0] * A[3] - A[1] * A[2];
+  force[0] = (A[3] * rhs[0] - A[1] * rhs[1]) / det;
+  force[1] = (A[0] * rhs[1] - A[2] * rhs[0]) / det;
 }
 
 void AdvancePlanarDeflection(const LawParameters& p, const LawInput& in, const double v[2],

@@ -69,6 +69,16 @@ double AdvanceDeflection(const LawParameters& p, const LawInput& in, double z, d
 // Friction force F (N) of a state law at deflection z (not for Coulomb).
 double StateForce(const LawParameters& p, const LawInput& in, double z);
 
+
+// State force of a simulation step with the damping terms (sigma1 dz/dt + sigma2 v) at the
+// trapezoidal mean of the step's start and end velocities, where the end velocity responds to
+// the force, v_next = velocity_free - dt_inverse_mass F (dt_inverse_mass = dt J M^-1 J'). For a
+// direction of motion dz/dt is linear in v, so this is one linear equation. Stable for any
+// sigma1, sigma2 and dt (an explicit damping force needs (sigma1 + sigma2) dt < 2 m) and second
+// order in dt. With a prescribed velocity (C API, identification) StateForce is used instead.
+double ImplicitStateForce(const LawParameters& p, const LawInput& in, double z,
+                          double velocity_free, double dt_inverse_mass);
+
 // Rigid Coulomb with a time-stepping stick/slip decision. `stick_force` is the force that
 // brings v_r to zero at the end of the step; the element sticks when it is within the static
 // level, else it slides at the kinetic level in the direction of `stick_force`.
@@ -100,6 +110,12 @@ void AdvancePlanarDeflection(const LawParameters& p, const LawInput& in, const d
 // Friction force vector F = k_t z + sigma1 dz/dt + sigma2 v (N), against the motion.
 void PlanarStateForce(const LawParameters& p, const LawInput& in, const double v[2],
                       const double z[2], double force[2]);
+
+// The planar ImplicitStateForce: damping terms at the trapezoidal mean of the step's start and
+// end velocities, v_next = v_free - B F (B = dt J M^-1 J', 2x2 row-major).
+void PlanarImplicitStateForce(const LawParameters& p, const LawInput& in, const double v[2],
+                              const double z[2], const double v_free[2], const double B[4],
+                              double force[2]);
 
 // Rigid Coulomb in the plane with a time-stepping stick/slip decision. The velocity at the end
 // of the step responds to the friction force F as v_next = v_free - B F (B = dt J M^-1 J', 2x2,

@@ -218,9 +218,14 @@ void PlanarFriction::Compute(const mjModel* m, mjData* d, int instance) {
   const double v[2] = {d->actuator_velocity[out[0]], d->actuator_velocity[out[1]]};
   in.velocity = std::hypot(v[0], v[1]);
   double force[2];
-  if (HasDeflection(p.law)) {
-    const double z[2] = {d->act[config_->act_address[0]], d->act[config_->act_address[1]]};
+  const double z[2] = {d->act[config_->act_address[0]], d->act[config_->act_address[1]]};
+  if (HasDeflection(p.law) && p.bristle_damping == 0 && p.viscous == 0) {
     PlanarStateForce(p, in, v, z, force);
+  } else if (HasDeflection(p.law)) {
+    // Damping terms at the end-of-step velocity, as the 1D element (ImplicitStateForce).
+    PlanarResponse response;
+    ComputePlanarResponse(m, d, out, &scratch_, &response);
+    PlanarImplicitStateForce(p, in, v, z, response.v_free, response.B, force);
   } else {
     PlanarResponse response;
     ComputePlanarResponse(m, d, out, &scratch_, &response);
