@@ -26,14 +26,18 @@ bool ReadBool(const mjModel* m, int instance, const char* plugin, const char* at
 // step one mjData with several models, so plugins compare this each step, not a model pointer.
 std::string ConfigFingerprint(const mjModel* m, int instance);
 
-// True when the instance's config bytes equal `fingerprint`; allocates nothing (called from
-// every compute/advance callback).
-bool ConfigUnchanged(const mjModel* m, int instance, const std::string& fingerprint);
+// True when the instance's config bytes equal `fingerprint`; allocates nothing. With
+// `edge_bytes`, a config longer than twice that is compared on its size and its first and last
+// edge_bytes only (the averaged element's table makes its config kilobytes long).
+bool ConfigUnchanged(const mjModel* m, int instance, const std::string& fingerprint,
+                     std::size_t edge_bytes = static_cast<std::size_t>(-1) / 2);
 
 // The parsed config of one plugin instance, re-read when stepped with a model whose config
 // bytes differ (rollout and batch can step one mjData with several models; a cached config
 // would silently keep the first model's values). The bytes are compared in the first callback
-// of a step; later callbacks of the same step (later_in_step) only check the model pointer.
+// of a step: in full for a model other than last step's, for the same model on their size and
+// their first and last 256 bytes (models are switched between steps, not edited in place).
+// Later callbacks of the same step (later_in_step) only check the model pointer.
 template <class Config>
 class CachedConfig {
  public:
@@ -44,8 +48,12 @@ class CachedConfig {
   // False when the config of `m` is invalid (the reader has warned, naming the attribute).
   bool Refresh(const mjModel* m, int instance, bool later_in_step = false) {
     if (later_in_step && m == model_) return valid_;
+    const bool same_model = m == model_;
     model_ = m;
-    if (ConfigUnchanged(m, instance, fingerprint_)) return valid_;
+    if (same_model ? ConfigUnchanged(m, instance, fingerprint_, kSpotCheckBytes)
+                   : ConfigUnchanged(m, instance, fingerprint_)) {
+      return valid_;
+    }
     fingerprint_ = ConfigFingerprint(m, instance);
     valid_ = read_(m, instance, &config_);
     return valid_;
@@ -54,6 +62,7 @@ class CachedConfig {
   const Config* operator->() const { return &config_; }
 
  private:
+  static constexpr std::size_t kSpotCheckBytes = 256;
   Reader read_;
   Config config_;
   std::string fingerprint_;
