@@ -27,26 +27,19 @@ from scipy import special
 from ._native import load
 from .laws import _as_c_array, _c_parameters
 from .params import FrictionParameters, ParameterError, RigParameters
-from .rig import MJCF_DIR, default_times
+from .rig import MJCF_DIR, MJCF_KEYS, default_times
 from .summary import averaging_window
 
 PLANAR_RIG_PATH = MJCF_DIR / "robots" / "planar_rig_resolved.xml"
 AVERAGED_RIG_PATH = MJCF_DIR / "robots" / "planar_rig_averaged.xml"
 
-# FrictionParameters field -> MJCF config key of vibrofriction.planar.
-PLANAR_MJCF_KEYS = {
-    "friction_coefficient": "mu",
-    "contact_stiffness_N_per_m": "stiffness",
-    "alpha": "alpha",
-    "breakaway_ratio": "breakaway",
-    "bristle_damping_N_s_per_m": "sigma1",
-    "viscous_N_s_per_m": "viscous",
-    "static_ratio": "static_ratio",
-    "stribeck_velocity_m_per_s": "stribeck_velocity",
-    "normal_force_modulation": "normal_modulation",
-    "normal_force_modulation_frequency_Hz": "modulation_frequency",
-    "normal_force_modulation_phase_rad": "modulation_phase",
-}
+# FrictionParameters field -> MJCF config key of vibrofriction.planar: the 1D element's keys
+# (rig.MJCF_KEYS) less the effects that have no isotropic meaning.
+PLANAR_MJCF_KEYS = {name: key for name, key in MJCF_KEYS.items() if name in (
+    "friction_coefficient", "contact_stiffness_N_per_m", "alpha", "breakaway_ratio",
+    "bristle_damping_N_s_per_m", "viscous_N_s_per_m", "static_ratio", "stribeck_velocity_m_per_s",
+    "normal_force_modulation", "normal_force_modulation_frequency_Hz",
+    "normal_force_modulation_phase_rad")}
 # Effects with no isotropic meaning in the plane: must be 0.
 _NOT_PLANAR = ("asymmetry", "position_ripple", "force_offset_N", "sensor_lag_s")
 
