@@ -32,14 +32,17 @@ def test_simulate_writes_dataset_and_summary(tmp_path, capsys):
         summary["mean_drive_force_N"] / summary["static_drive_force_N"])
     assert summary["sign_change"] is True
     assert summary["friction_min_N"] < 0 < summary["friction_max_N"]
-    assert summary["timestep_s"] == 1e-5 and summary["duration_s"] == 0.04
+    # default timestep: N + 0.382 steps per period, N = 50 at kappa 6 (rig.recommended_timestep)
+    timestep = 1.0 / (4000.0 * (50 + 0.381966))
+    assert summary["timestep_s"] == pytest.approx(timestep, rel=1e-12)
+    assert summary["duration_s"] == 0.04
     dataset = read_dataset(csv_path)
     assert list(dataset.columns) == list(COLUMNS)
-    assert dataset.n_rows == 4000
+    assert dataset.n_rows == round(0.04 / timestep)
     assert dataset.metadata.mass_kg == 0.5
     assert dataset.metadata.vibration_frequency_Hz == 4000.0
     assert dataset.metadata.drive_velocity_m_per_s == 5e-4
-    assert dataset.metadata.sample_rate_Hz == 1e5
+    assert dataset.metadata.sample_rate_Hz == pytest.approx(1.0 / timestep, rel=1e-8)
     sidecar = json.loads((tmp_path / "run.json").read_text())
     assert set(sidecar) >= {"mass_kg", "drive_stiffness_N_per_m", "drive_velocity_m_per_s",
                             "vibration_frequency_Hz", "normal_force_N", "sample_rate_Hz"}

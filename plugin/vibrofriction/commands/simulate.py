@@ -72,7 +72,8 @@ def run_settings(args: argparse.Namespace, cases: list[tuple[RigParameters, Fric
                  ) -> tuple[float, float, float]:
     """(timestep_s, duration_s, settle_time_s) from the options and the cases' defaults."""
     timestep = positive_seconds(args.timestep, "--timestep")
-    timestep = rig_module.DEFAULT_TIMESTEP_S if timestep is None else timestep
+    if timestep is None:  # the finest the cases recommend (one timestep for a rollout batch)
+        timestep = min(rig_module.recommended_timestep(r) for r, _ in cases)
     defaults = [rig_module.default_times(r, f) for r, f in cases]
     duration = positive_seconds(args.duration, "--duration")
     settle = positive_seconds(args.settle, "--settle")

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
+from .. import rig as rig_module
 from ..params import (PAPER_CONTACT_STIFFNESS_N_PER_M, FrictionParameters, RigParameters,
                       default_friction, lugre_default_bristle_damping)
 
@@ -92,37 +93,13 @@ EXPERIMENT_FIG14 = ExperimentConfig(
     drive_velocity_m_per_s=0.31 * MM_PER_S, pressure_N_per_mm2=0.031, external_load_N=31.8,
     contact_stiffness_N_per_m=72.0 * N_PER_UM)
 
-# Timestep rule. The plugin holds the Coulomb force and the inputs of the state laws over a
-# step, so the mean force depends on where the force switches within each period. With an
-# integer number of steps per period the step grid repeats identically every period and the
-# rigid Coulomb mean is quantized to multiples of 2/N (at 4 kHz and 10 us: 0.04 mu F_N). This
-# study uses N + 0.382 steps per period (0.382 = 2 - golden ratio): the grid slides along the
-# vibration phase from period to period and the quantization averages out over the window.
-# N = 50, doubled for every doubling of kappa_v above 10 (measured at 4 kHz: mean drive force
-# within 1 % of a 16x finer step for Dahl up to kappa_v = 80 and for Coulomb up to 40).
-BASE_STEPS_PER_PERIOD = 50
-STEPS_DOUBLING_KAPPA = 10.0
-STEP_PHASE_SLIDE = 0.381966
-STATIC_TIMESTEP_S = 1e-5
-
-
-def steps_per_period(kappa: float, base: int = BASE_STEPS_PER_PERIOD) -> int:
-    """N = base * 2^ceil(log2(max(1, kappa/10)))."""
-    doublings = max(0, math.ceil(math.log2(max(1.0, abs(kappa) / STEPS_DOUBLING_KAPPA)) - 1e-12))
-    return base * 2 ** doublings
-
-
-def period_timestep(frequency_Hz: float, steps: int) -> float:
-    """dt = T / (N + 0.382): N steps and a sliding fraction per vibration period."""
-    return 1.0 / (frequency_Hz * (steps + STEP_PHASE_SLIDE))
-
-
-def study_timestep(rig: RigParameters) -> float:
-    """The study's timestep for ``rig`` (1e-5 s without vibration)."""
-    f = rig.vibration_frequency_Hz
-    if f <= 0 or rig.vibration_velocity_amplitude_m_per_s <= 0:
-        return STATIC_TIMESTEP_S
-    return period_timestep(f, steps_per_period(rig.kappa))
+# Timestep rule: rig.recommended_timestep (N + 0.382 steps per vibration period, N = 50 doubled
+# for every doubling of kappa_v above 10; see rig.py for why).
+BASE_STEPS_PER_PERIOD = rig_module.BASE_STEPS_PER_PERIOD
+STATIC_TIMESTEP_S = rig_module.DEFAULT_TIMESTEP_S
+steps_per_period = rig_module.steps_per_period
+period_timestep = rig_module.period_timestep
+study_timestep = rig_module.recommended_timestep
 
 
 def friction_for(law: str, rig: RigParameters, *,
