@@ -47,6 +47,7 @@ QUICK_TIMESTEPS_S = (1e-6, 1e-5, 1e-4)
 AMPLITUDES_M_PER_S = (0.75e-3, 3e-3)
 FRICTIONLOSS_SOLREF = (2e-6, 1.0)
 BARE = "bare rig (friction element removed)"
+WITHOUT_SENSOR = "native plugin, dahl, without its state sensor"
 BUILTIN_STATE = "built-in integrator actuator on the bare rig (one act, zero force)"
 
 
@@ -80,6 +81,10 @@ def speed(quick: bool) -> dict:
     for law in LAWS:
         models[f"native plugin, {law}"] = (
             rig_module.build_model(rig, default_friction(law, rig), TIMESTEP_S), _no_callback)
+    # The element without its (optional) state sensor.
+    no_sensor = rig_module.build_spec(rig, default_friction("dahl", rig), TIMESTEP_S)
+    no_sensor.delete(no_sensor.sensor("friction_state"))
+    models[WITHOUT_SENSOR] = (no_sensor.compile(), _no_callback)
     # What MuJoCo itself charges for an actuator with one activation state (no friction).
     models[BUILTIN_STATE] = (_bare_with_integrator_actuator(rig), _no_callback)
     dahl = default_friction("dahl", rig)

@@ -24,6 +24,7 @@ SCENE = """
         <config key="ripple_wavelength" value="1e-3"/>
       </instance>
     </plugin>
+    <plugin plugin="vibrofriction.friction_sensor"/>
   </extension>
   <worldbody>
     <geom name="floor" type="plane" size="1 1 0.1"/>
@@ -39,7 +40,9 @@ SCENE = """
     <motor name="lift" joint="lift_z"/>
   </actuator>
   <sensor>
-    <plugin name="contact_state" instance="contact"/>
+    <plugin name="contact_state" plugin="vibrofriction.friction_sensor">
+      <config key="actuator" value="contact"/>
+    </plugin>
     <actuatorfrc name="lift_force" actuator="lift"/>
   </sensor>
 </mujoco>
@@ -97,3 +100,35 @@ def test_normal_force_from_the_contact_between_two_geoms():
 def test_bad_normal_load_sources_are_named(normal, attribute):
     with pytest.raises(ValueError, match=attribute):
         _model(normal)
+
+
+@pytest.mark.parametrize("actuator, message", [
+    ("", "attribute 'actuator' is missing"),
+    ("no_such_actuator", "names no actuator"),
+    ("lift", "is not backed by vibrofriction.friction"),
+])
+def test_state_sensor_names_a_friction_element_actuator(actuator, message):
+    vibrofriction.load()
+    xml = SCENE.format(normal='<config key="normal" value="10"/>', mass=BLOCK_KG)
+    xml = xml.replace('<config key="actuator" value="contact"/>',
+                      f'<config key="actuator" value="{actuator}"/>' if actuator else "")
+    with pytest.raises(ValueError, match=message):
+        mujoco.MjModel.from_xml_string(xml)
+
+
+def test_an_element_without_its_sensor_adds_no_acceleration_stage_work():
+    # MuJoCo runs mj_rnePostConstraint for every plugin with an acceleration-stage sensor
+    # capability; the element has none, so without its sensor nothing forces it.
+    vibrofriction.load()
+    spec = mujoco.MjSpec.from_string(SCENE.format(normal='<config key="normal" value="10"/>',
+                                                  mass=BLOCK_KG))
+    spec.delete(spec.sensor("contact_state"))
+    spec.delete(spec.sensor("lift_force"))
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    assert data.flg_rnepost == 0
+    with_sensor = _model('<config key="normal" value="10"/>')
+    data = mujoco.MjData(with_sensor)
+    mujoco.mj_forward(with_sensor, data)
+    assert data.flg_rnepost == 1  # the state sensor is an acceleration-stage plugin sensor

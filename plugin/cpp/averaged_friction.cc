@@ -265,19 +265,15 @@ void AveragedFriction::Compute(const mjModel* m, mjData* d, int instance) {
   d->actuator_force[out[1]] = -force[1];
 }
 
-void AveragedFriction::ComputeSensor(const mjModel* m, mjData* d, int instance) {
-  for (int s = 0; s < m->nsensor; ++s) {
-    if (m->sensor_plugin[s] != instance) continue;
-    mjtNum* sensor = d->sensordata + m->sensor_adr[s];
-    mju_zero(sensor, kSensorDim);
-    if (!config_.Refresh(m, instance, /*later_in_step=*/true)) continue;
-    const int* out = config_->transmission.output;
-    sensor[0] = -d->actuator_force[out[0]];
-    sensor[1] = -d->actuator_force[out[1]];
-    sensor[4] = d->actuator_velocity[out[0]];
-    sensor[5] = d->actuator_velocity[out[1]];
-    sensor[6] = config_->normal.Value(m, d, d->plugin_state + m->plugin_stateadr[instance]);
-  }
+void AveragedFriction::WriteSensor(const mjModel* m, mjData* d, int instance, mjtNum* sensor) {
+  mju_zero(sensor, kSensorDim);
+  if (!config_.Refresh(m, instance, /*later_in_step=*/true)) return;
+  const int* out = config_->transmission.output;
+  sensor[0] = -d->actuator_force[out[0]];
+  sensor[1] = -d->actuator_force[out[1]];
+  sensor[4] = d->actuator_velocity[out[0]];
+  sensor[5] = d->actuator_velocity[out[1]];
+  sensor[6] = config_->normal.Value(m, d, d->plugin_state + m->plugin_stateadr[instance]);
 }
 
 void AveragedFriction::Advance(const mjModel* m, mjData* d, int instance) {
@@ -289,23 +285,17 @@ void AveragedFriction::RegisterPlugin() {
   mjpPlugin plugin;
   mjp_defaultPlugin(&plugin);
   plugin.name = kName;
-  plugin.capabilityflags |= mjPLUGIN_ACTUATOR | mjPLUGIN_SENSOR;
+  plugin.capabilityflags |= mjPLUGIN_ACTUATOR;
   plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
   plugin.attributes = kAttributes;
-  plugin.needstage = mjSTAGE_ACC;
   plugin.nstate = NormalLoad::StateSize;
-  plugin.nsensordata = +[](const mjModel* m, int instance, int sensor_id) {
-    return AveragedFriction::kSensorDim;
-  };
   SetInstanceLifecycle<AveragedFriction>(&plugin);
   plugin.reset = +[](const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
     const int n = NormalLoad::StateSize(m, instance);
     for (int i = 0; i < n; ++i) plugin_state[i] = 0;
   };
   plugin.compute = +[](const mjModel* m, mjData* d, int instance, int capability_bit) {
-    auto* element = InstanceOf<AveragedFriction>(d, instance);
-    if (capability_bit & mjPLUGIN_ACTUATOR) element->Compute(m, d, instance);
-    if (capability_bit & mjPLUGIN_SENSOR) element->ComputeSensor(m, d, instance);
+    InstanceOf<AveragedFriction>(d, instance)->Compute(m, d, instance);
   };
   plugin.advance = +[](const mjModel* m, mjData* d, int instance) {
     InstanceOf<AveragedFriction>(d, instance)->Advance(m, d, instance);

@@ -66,7 +66,8 @@ class AveragedFriction {
   static void RegisterPlugin();
 
   void Compute(const mjModel* m, mjData* d, int instance);
-  void ComputeSensor(const mjModel* m, mjData* d, int instance);
+  // Writes kSensorDim values of this element's state to `out` (vibrofriction.*_sensor).
+  void WriteSensor(const mjModel* m, mjData* d, int instance, mjtNum* out);
   void Advance(const mjModel* m, mjData* d, int instance);
 
   // Averaged force (N) at sliding velocity u with normal load F_N and amplitude v_a > 0.

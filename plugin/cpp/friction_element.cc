@@ -130,24 +130,20 @@ void FrictionElement::Compute(const mjModel* m, mjData* d, int instance) {
   d->actuator_force[config_->output] = -friction;
 }
 
-void FrictionElement::ComputeSensor(const mjModel* m, mjData* d, int instance) {
-  for (int s = 0; s < m->nsensor; ++s) {
-    if (m->sensor_plugin[s] != instance) continue;
-    mjtNum* out = d->sensordata + m->sensor_adr[s];
-    if (!config_.Refresh(m, instance, /*later_in_step=*/true)) {
-      mju_zero(out, kSensorDim);
-      continue;
-    }
-    const LawInput in = Input(m, d, instance, d->actuator_velocity[config_->output]);
-    const double friction = -d->actuator_force[config_->output];
-    out[0] = friction;
-    out[1] = HasDeflection(config_->law.law) ? d->act[config_->act_address] : 0.0;
-    out[2] = in.velocity;
-    out[3] = ModulatedNormalForce(config_->law, in);
-    out[4] = config_->sensor_lag > 0
-                 ? d->plugin_state[m->plugin_stateadr[instance] + config_->lag_state]
-                 : friction;
+void FrictionElement::WriteSensor(const mjModel* m, mjData* d, int instance, mjtNum* out) {
+  if (!config_.Refresh(m, instance, /*later_in_step=*/true)) {
+    mju_zero(out, kSensorDim);
+    return;
   }
+  const LawInput in = Input(m, d, instance, d->actuator_velocity[config_->output]);
+  const double friction = -d->actuator_force[config_->output];
+  out[0] = friction;
+  out[1] = HasDeflection(config_->law.law) ? d->act[config_->act_address] : 0.0;
+  out[2] = in.velocity;
+  out[3] = ModulatedNormalForce(config_->law, in);
+  out[4] = config_->sensor_lag > 0
+               ? d->plugin_state[m->plugin_stateadr[instance] + config_->lag_state]
+               : friction;
 }
 
 void FrictionElement::Advance(const mjModel* m, mjData* d, int instance) {
@@ -181,14 +177,10 @@ void FrictionElement::RegisterPlugin() {
   mjpPlugin plugin;
   mjp_defaultPlugin(&plugin);
   plugin.name = kName;
-  plugin.capabilityflags |= mjPLUGIN_ACTUATOR | mjPLUGIN_SENSOR;
+  plugin.capabilityflags |= mjPLUGIN_ACTUATOR;
   plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
   plugin.attributes = kAttributes;
-  plugin.needstage = mjSTAGE_ACC;
   plugin.nstate = FrictionElement::StateSize;
-  plugin.nsensordata = +[](const mjModel* m, int instance, int sensor_id) {
-    return FrictionElement::kSensorDim;
-  };
   SetInstanceLifecycle<FrictionElement>(&plugin);
   plugin.reset = +[](const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
     // The contact normal force and the lagged friction force start at 0, like z.
@@ -196,9 +188,7 @@ void FrictionElement::RegisterPlugin() {
     for (int i = 0; i < n; ++i) plugin_state[i] = 0;
   };
   plugin.compute = +[](const mjModel* m, mjData* d, int instance, int capability_bit) {
-    auto* element = InstanceOf<FrictionElement>(d, instance);
-    if (capability_bit & mjPLUGIN_ACTUATOR) element->Compute(m, d, instance);
-    if (capability_bit & mjPLUGIN_SENSOR) element->ComputeSensor(m, d, instance);
+    InstanceOf<FrictionElement>(d, instance)->Compute(m, d, instance);
   };
   plugin.advance = +[](const mjModel* m, mjData* d, int instance) {
     InstanceOf<FrictionElement>(d, instance)->Advance(m, d, instance);

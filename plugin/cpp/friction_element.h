@@ -45,7 +45,8 @@ class FrictionElement {
   static void RegisterPlugin();
 
   void Compute(const mjModel* m, mjData* d, int instance);
-  void ComputeSensor(const mjModel* m, mjData* d, int instance);
+  // Writes kSensorDim values of this element's state to `out` (vibrofriction.*_sensor).
+  void WriteSensor(const mjModel* m, mjData* d, int instance, mjtNum* out);
   void Advance(const mjModel* m, mjData* d, int instance);
   static int StateSize(const mjModel* m, int instance);
 

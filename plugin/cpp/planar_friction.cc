@@ -235,26 +235,22 @@ void PlanarFriction::Compute(const mjModel* m, mjData* d, int instance) {
   d->actuator_force[out[1]] = -force[1];
 }
 
-void PlanarFriction::ComputeSensor(const mjModel* m, mjData* d, int instance) {
-  for (int s = 0; s < m->nsensor; ++s) {
-    if (m->sensor_plugin[s] != instance) continue;
-    mjtNum* sensor = d->sensordata + m->sensor_adr[s];
-    if (!config_.Refresh(m, instance, /*later_in_step=*/true)) {
-      mju_zero(sensor, kSensorDim);
-      continue;
-    }
-    const int* out = config_->transmission.output;
-    const LawInput in = Input(m, d, instance);
-    const bool state = HasDeflection(config_->law.law);
-    sensor[0] = -d->actuator_force[out[0]];
-    sensor[1] = -d->actuator_force[out[1]];
-    sensor[2] = state ? d->act[config_->act_address[0]] : 0.0;
-    sensor[3] = state ? d->act[config_->act_address[1]] : 0.0;
-    sensor[4] = d->actuator_velocity[out[0]];
-    sensor[5] = d->actuator_velocity[out[1]];
-    const double mu = config_->law.friction_coefficient;
-    sensor[6] = CoulombLevel(config_->law, in, 0) / (mu > 0 ? mu : 1.0);
+void PlanarFriction::WriteSensor(const mjModel* m, mjData* d, int instance, mjtNum* sensor) {
+  if (!config_.Refresh(m, instance, /*later_in_step=*/true)) {
+    mju_zero(sensor, kSensorDim);
+    return;
   }
+  const int* out = config_->transmission.output;
+  const LawInput in = Input(m, d, instance);
+  const bool state = HasDeflection(config_->law.law);
+  sensor[0] = -d->actuator_force[out[0]];
+  sensor[1] = -d->actuator_force[out[1]];
+  sensor[2] = state ? d->act[config_->act_address[0]] : 0.0;
+  sensor[3] = state ? d->act[config_->act_address[1]] : 0.0;
+  sensor[4] = d->actuator_velocity[out[0]];
+  sensor[5] = d->actuator_velocity[out[1]];
+  const double mu = config_->law.friction_coefficient;
+  sensor[6] = CoulombLevel(config_->law, in, 0) / (mu > 0 ? mu : 1.0);
 }
 
 void PlanarFriction::Advance(const mjModel* m, mjData* d, int instance) {
@@ -278,23 +274,17 @@ void PlanarFriction::RegisterPlugin() {
   mjpPlugin plugin;
   mjp_defaultPlugin(&plugin);
   plugin.name = kName;
-  plugin.capabilityflags |= mjPLUGIN_ACTUATOR | mjPLUGIN_SENSOR;
+  plugin.capabilityflags |= mjPLUGIN_ACTUATOR;
   plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
   plugin.attributes = kAttributes;
-  plugin.needstage = mjSTAGE_ACC;
   plugin.nstate = NormalLoad::StateSize;
-  plugin.nsensordata = +[](const mjModel* m, int instance, int sensor_id) {
-    return PlanarFriction::kSensorDim;
-  };
   SetInstanceLifecycle<PlanarFriction>(&plugin);
   plugin.reset = +[](const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
     const int n = NormalLoad::StateSize(m, instance);
     for (int i = 0; i < n; ++i) plugin_state[i] = 0;  // no contact force before the first step
   };
   plugin.compute = +[](const mjModel* m, mjData* d, int instance, int capability_bit) {
-    auto* element = InstanceOf<PlanarFriction>(d, instance);
-    if (capability_bit & mjPLUGIN_ACTUATOR) element->Compute(m, d, instance);
-    if (capability_bit & mjPLUGIN_SENSOR) element->ComputeSensor(m, d, instance);
+    InstanceOf<PlanarFriction>(d, instance)->Compute(m, d, instance);
   };
   plugin.advance = +[](const mjModel* m, mjData* d, int instance) {
     InstanceOf<PlanarFriction>(d, instance)->Advance(m, d, instance);

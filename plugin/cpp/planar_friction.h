@@ -80,7 +80,8 @@ class PlanarFriction {
   static void RegisterPlugin();
 
   void Compute(const mjModel* m, mjData* d, int instance);
-  void ComputeSensor(const mjModel* m, mjData* d, int instance);
+  // Writes kSensorDim values of this element's state to `out` (vibrofriction.*_sensor).
+  void WriteSensor(const mjModel* m, mjData* d, int instance, mjtNum* out);
   void Advance(const mjModel* m, mjData* d, int instance);
 
  private:

@@ -4,10 +4,12 @@
 
 #include "averaged_friction.h"  // vibrofriction.planar, vibrofriction.averaged
 #include "friction_element.h"
+#include "state_sensor.h"
 #include "support_motion.h"
 
 mjPLUGIN_LIB_INIT(vibrofriction) {
   vibrofriction::FrictionElement::RegisterPlugin();
   vibrofriction::SupportMotion::RegisterPlugin();
   vibrofriction::RegisterPlanarPlugins();
+  vibrofriction::RegisterStateSensors();
 }
