@@ -27,7 +27,7 @@ from scipy import special
 from ._native import load
 from .laws import _as_c_array, _c_parameters
 from .params import FrictionParameters, ParameterError, RigParameters
-from .rig import MJCF_DIR, MJCF_KEYS, default_times
+from .rig import MJCF_DIR, MJCF_KEYS, default_times, set_plugin_config
 from .summary import averaging_window
 
 PLANAR_RIG_PATH = MJCF_DIR / "robots" / "planar_rig_resolved.xml"
@@ -178,14 +178,6 @@ class PlanarRigRun:
         return self.mean(self.friction_force_N, settle_time_s)
 
 
-def _set_config(spec: mujoco.MjSpec, name: str, config: dict[str, str]) -> None:
-    for plugin in spec.plugins:
-        if plugin.name == name:
-            plugin.config = config
-            return
-    raise RuntimeError(f"planar rig MJCF has no plugin instance named {name!r}")
-
-
 def _component_motion(frequency: float, amplitude: float, component: float) -> dict[str, str]:
     # The motion plugin takes a non-negative amplitude: a negative component is a phase of pi.
     return {"frequency": repr(float(frequency)),
@@ -219,16 +211,16 @@ def build_rig_spec(rig: RigParameters, friction: FrictionParameters, *,
     if averaged_config:
         va = 0.0
     c, s = math.cos(vibration_angle_rad), math.sin(vibration_angle_rad)
-    _set_config(spec, "table_shaker_x", _component_motion(f, va, c if abs(c) > 1e-15 else 0.0))
-    _set_config(spec, "table_shaker_y", _component_motion(f, va, s if abs(s) > 1e-15 else 0.0))
+    set_plugin_config(spec, "table_shaker_x", _component_motion(f, va, c if abs(c) > 1e-15 else 0.0))
+    set_plugin_config(spec, "table_shaker_y", _component_motion(f, va, s if abs(s) > 1e-15 else 0.0))
     vd = rig.drive_velocity_m_per_s
     cd, sd = math.cos(drive_angle_rad), math.sin(drive_angle_rad)
-    _set_config(spec, "drive_end_x", {"velocity": repr(float(vd * cd if abs(cd) > 1e-15 else 0.0))})
-    _set_config(spec, "drive_end_y", {"velocity": repr(float(vd * sd if abs(sd) > 1e-15 else 0.0))})
+    set_plugin_config(spec, "drive_end_x", {"velocity": repr(float(vd * cd if abs(cd) > 1e-15 else 0.0))})
+    set_plugin_config(spec, "drive_end_y", {"velocity": repr(float(vd * sd if abs(sd) > 1e-15 else 0.0))})
     config = planar_config(friction, normal_force_N=rig.normal_force_N)
     if friction.normal_force_modulation_frequency_Hz == 0:
         config["modulation_frequency"] = repr(float(f))
-    _set_config(spec, "friction", dict(averaged_config) if averaged_config else config)
+    set_plugin_config(spec, "friction", dict(averaged_config) if averaged_config else config)
     return spec
 
 

@@ -66,12 +66,13 @@ def friction_config(rig: RigParameters, friction: FrictionParameters) -> dict[st
     return config
 
 
-def _set_plugin_config(spec: mujoco.MjSpec, name: str, config: dict[str, str]) -> None:
+def set_plugin_config(spec: mujoco.MjSpec, name: str, config: dict[str, str]) -> None:
+    """Replace the config of the plugin instance ``name`` in ``spec``."""
     for plugin in spec.plugins:
         if plugin.name == name:
             plugin.config = config
             return
-    raise RuntimeError(f"rig MJCF has no plugin instance named {name!r}")
+    raise RuntimeError(f"MJCF model {spec.modelname!r} has no plugin instance named {name!r}")
 
 
 def build_spec(rig: RigParameters, friction: FrictionParameters,
@@ -88,12 +89,12 @@ def build_spec(rig: RigParameters, friction: FrictionParameters,
     drive = spec.actuator("drive_spring")
     # Tendon length x - x_B, velocity xdot - v_d: F_d = -k_d (x - x_B) - h_d (xdot - v_d).
     drive.biasprm[:3] = [0.0, -rig.drive_stiffness_N_per_m, -rig.drive_damping_N_s_per_m]
-    _set_plugin_config(spec, "table_shaker", {
+    set_plugin_config(spec, "table_shaker", {
         "frequency": repr(float(rig.vibration_frequency_Hz)),
         "velocity_amplitude": repr(float(rig.vibration_velocity_amplitude_m_per_s))})
-    _set_plugin_config(spec, "drive_end_motion", {
+    set_plugin_config(spec, "drive_end_motion", {
         "velocity": repr(float(rig.drive_velocity_m_per_s))})
-    _set_plugin_config(spec, "friction", friction_config(rig, friction))
+    set_plugin_config(spec, "friction", friction_config(rig, friction))
     return spec
 
 
