@@ -28,7 +28,6 @@ const char* const kAttributes[] = {
     kTableAlong, kTableAcross};
 
 constexpr char kPlugin[] = "vibrofriction.averaged";
-constexpr double kPi = 3.14159265358979323846;
 
 bool Reject(const char* attr, double value, const char* rule) {
   return RejectAttribute(kPlugin, attr, value, rule);

@@ -4,6 +4,13 @@
 #ifndef VIBROFRICTION_C_API_H_
 #define VIBROFRICTION_C_API_H_
 
+// The library hides its symbols (CMakeLists.txt); the C API is what ctypes must find.
+#if defined(_WIN32)
+#define VF_EXPORT __declspec(dllexport)
+#else
+#define VF_EXPORT __attribute__((visibility("default")))
+#endif
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -17,16 +24,25 @@ typedef struct vf_law_parameters {
 } vf_law_parameters;
 
 // Version of this C API (bump on any layout change) and the MuJoCo header it was built with.
-int vf_api_version(void);
-int vf_mujoco_header_version(void);
+VF_EXPORT int vf_api_version(void);
+VF_EXPORT int vf_mujoco_header_version(void);
 
 // Runs the law along samples i = 0..n-1. Force i uses (z_i, v_i); z_{i+1} advances z_i over
 // [t_i, t_{i+1}] with the input at t_{i+1}, as the plugin does (force with the old state, update
 // with the new velocity). position and normal_force may be NULL (0 and the constant normal).
 // Writes force_out[n] (N) and deflection_out[n] (m). Returns 0, or -1 on bad arguments.
-int vf_run_law(const vf_law_parameters* params, int n, const double* time,
+VF_EXPORT int vf_run_law(const vf_law_parameters* params, int n, const double* time,
                const double* velocity, const double* position, const double* normal_force,
                double z0, double* force_out, double* deflection_out);
+
+// The planar law (plugin/cpp/planar_friction.cc) along a prescribed velocity history, same step
+// order as vf_run_law. Coulomb is kinematic (no stick solve). Effects other than the normal-load
+// modulation must be 0. normal_force may be NULL. Writes fx, fy (N) and zx, zy (m) [n].
+// Returns 0, or -1 on bad arguments.
+VF_EXPORT int vf_run_planar_law(const vf_law_parameters* params, int n, const double* time,
+                                const double* vx, const double* vy, const double* normal_force,
+                                double z0x, double z0y, double* fx, double* fy, double* zx,
+                                double* zy);
 
 #ifdef __cplusplus
 }

@@ -108,12 +108,16 @@ void FrictionElement::Compute(const mjModel* m, mjData* d, int instance) {
     return;
   }
   const LawParameters& p = config_->law;
-  const LawInput in = Input(m, d, instance, d->actuator_velocity[config_->output]);
-  double friction;
+  const double velocity = d->actuator_velocity[config_->output];
   const double z = d->act[config_->act_address];
   if (HasDeflection(p.law) && p.bristle_damping == 0 && p.viscous == 0) {
-    friction = StateForce(p, in, z);
-  } else if (HasDeflection(p.law)) {
+    // The common case, kept lean: no level, no input needed.
+    d->actuator_force[config_->output] = -UndampedStateForce(p, velocity, z);
+    return;
+  }
+  const LawInput in = Input(m, d, instance, velocity);
+  double friction;
+  if (HasDeflection(p.law)) {
     // Damping terms at the end-of-step velocity (see ImplicitStateForce).
     const StepResponse response = ComputeStepResponse(m, d, config_->output, &scratch_);
     friction = ImplicitStateForce(p, in, z, response.velocity_free,
@@ -150,7 +154,9 @@ void FrictionElement::Advance(const mjModel* m, mjData* d, int instance) {
   if (!config_.Refresh(m, instance, /*later_in_step=*/true)) return;
   const double dt = m->opt.timestep;
   mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
-  config_->normal.Update(m, d, state);  // this step's contact force, for the next step
+  if (config_->normal.UsesContacts()) {
+    config_->normal.Update(m, d, state);  // this step's contact force, for the next step
+  }
   if (config_->sensor_lag > 0) {
     // Exact first-order lag over the step, driven by this step's force.
     mjtNum* lagged = state + config_->lag_state;

@@ -7,8 +7,6 @@
 namespace vibrofriction {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 double Sign(double x) { return (x > 0) - (x < 0); }
 
 // Dahl: |w| after time with d|w|/dt = -(|v|/z_c) |w|^alpha, lambda = |v| dt / z_c.
@@ -87,33 +85,6 @@ double AdvanceDupont(const LawParameters& p, const LawInput& in, double z, doubl
 
 }  // namespace
 
-double ModulatedNormalForce(const LawParameters& p, const LawInput& in) {
-  double normal = in.normal_force;
-  if (p.normal_modulation != 0) {
-    normal *= 1.0 + p.normal_modulation *
-                        std::sin(2 * kPi * p.normal_modulation_frequency * in.time +
-                                 p.normal_modulation_phase);
-  }
-  return std::max(normal, 0.0);
-}
-
-double CoulombLevel(const LawParameters& p, const LawInput& in, double direction) {
-  double level = p.friction_coefficient * ModulatedNormalForce(p, in);
-  if (direction > 0) level *= 1.0 + p.asymmetry;
-  if (direction < 0) level *= 1.0 - p.asymmetry;
-  if (p.ripple != 0) {
-    level *= 1.0 + p.ripple * std::sin(2 * kPi * in.position / p.ripple_wavelength + p.ripple_phase);
-  }
-  return level;
-}
-
-double StribeckLevel(const LawParameters& p, const LawInput& in) {
-  const double coulomb = CoulombLevel(p, in, Sign(in.velocity));
-  if (p.static_ratio == 1.0) return coulomb;
-  const double ratio = in.velocity / p.stribeck_velocity;
-  return coulomb * (1.0 + (p.static_ratio - 1.0) * std::exp(-ratio * ratio));
-}
-
 double DeflectionRate(const LawParameters& p, const LawInput& in, double z) {
   const double v = in.velocity;
   if (v == 0) return 0.0;
@@ -154,6 +125,11 @@ double AdvanceDeflection(const LawParameters& p, const LawInput& in, double z, d
     case Law::kDahl: {
       const double z_c = CoulombLevel(p, in, s) / p.contact_stiffness;
       if (z_c <= 0) return 0.0;  // no normal load: no friction, no deflection
+      if (p.alpha == 1.0) {
+        // |w| decays as exp(-|v| t / z_c): z relaxes exponentially to s z_c (as LuGre).
+        const double z_ss = s * z_c;
+        return z_ss + (z - z_ss) * std::exp(-std::fabs(v) * dt / z_c);
+      }
       const double w0 = 1.0 - s * z / z_c;
       const double w1 = Sign(w0) * DecayDahlBase(std::fabs(w0), p.alpha, std::fabs(v) * dt / z_c);
       return s * z_c * (1.0 - w1);
@@ -173,9 +149,9 @@ double AdvanceDeflection(const LawParameters& p, const LawInput& in, double z, d
 }
 
 double StateForce(const LawParameters& p, const LawInput& in, double z) {
-  const double damping = p.bristle_damping != 0 ? p.bristle_damping * DeflectionRate(p, in, z) : 0;
-  return p.contact_stiffness * z + damping +
-         p.viscous * in.velocity + p.force_offset;
+  const double undamped = UndampedStateForce(p, in.velocity, z);
+  return p.bristle_damping != 0 ? undamped + p.bristle_damping * DeflectionRate(p, in, z)
+                                : undamped;
 }
 
 namespace {

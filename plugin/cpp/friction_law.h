@@ -14,7 +14,12 @@
 #ifndef VIBROFRICTION_FRICTION_LAW_H_
 #define VIBROFRICTION_FRICTION_LAW_H_
 
+#include <algorithm>
+#include <cmath>
+
 namespace vibrofriction {
+
+inline constexpr double kPi = 3.14159265358979323846;
 
 enum class Law : int { kCoulomb = 0, kDahl = 1, kDupont = 2, kLuGre = 3 };
 
@@ -50,13 +55,42 @@ struct LawInput {
 };
 
 // Normal force (N, >= 0) after the normal-load modulation.
-double ModulatedNormalForce(const LawParameters& p, const LawInput& in);
+inline double ModulatedNormalForce(const LawParameters& p, const LawInput& in) {
+  double normal = in.normal_force;
+  if (p.normal_modulation != 0) {
+    normal *= 1.0 + p.normal_modulation *
+                        std::sin(2 * kPi * p.normal_modulation_frequency * in.time +
+                                 p.normal_modulation_phase);
+  }
+  return std::max(normal, 0.0);
+}
 
 // Coulomb level F_c (N) for the direction of motion `direction` (+1 / -1 / 0) with all effects.
-double CoulombLevel(const LawParameters& p, const LawInput& in, double direction);
+// Inline (as the two below): the plugin calls them every step and the effects are usually off.
+inline double CoulombLevel(const LawParameters& p, const LawInput& in, double direction) {
+  double level = p.friction_coefficient * ModulatedNormalForce(p, in);
+  if (p.asymmetry != 0) {
+    if (direction > 0) level *= 1.0 + p.asymmetry;
+    if (direction < 0) level *= 1.0 - p.asymmetry;
+  }
+  if (p.ripple != 0) {
+    level *= 1.0 + p.ripple * std::sin(2 * kPi * in.position / p.ripple_wavelength + p.ripple_phase);
+  }
+  return level;
+}
 
 // Stribeck curve g (N) at the input's velocity: F_c + (F_s - F_c) exp(-(v/v_s)^2).
-double StribeckLevel(const LawParameters& p, const LawInput& in);
+inline double StribeckLevel(const LawParameters& p, const LawInput& in) {
+  const double coulomb = CoulombLevel(p, in, (in.velocity > 0) - (in.velocity < 0));
+  if (p.static_ratio == 1.0) return coulomb;
+  const double ratio = in.velocity / p.stribeck_velocity;
+  return coulomb * (1.0 + (p.static_ratio - 1.0) * std::exp(-ratio * ratio));
+}
+
+// k_t z + sigma2 v + offset (N): the state force without bristle damping, which needs no level.
+inline double UndampedStateForce(const LawParameters& p, double velocity, double z) {
+  return p.contact_stiffness * z + p.viscous * velocity + p.force_offset;
+}
 
 // Deflection rate dz/dt (m/s) at state z.
 double DeflectionRate(const LawParameters& p, const LawInput& in, double z);

@@ -298,9 +298,8 @@ void PlanarFriction::RegisterPlugin() {
 
 extern "C" {
 
-// Same step order as vf_run_law: force i uses (z_i, v_i); z_{i+1} advances over [t_i, t_{i+1}]
-// with the input at t_{i+1}. Coulomb is kinematic (no stick solve). Effects other than the
-// normal-load modulation must be 0. normal_force may be NULL. Returns 0, or -1 on bad arguments.
+// Declared in c_api.h (exported). Force i uses (z_i, v_i); z_{i+1} advances over [t_i, t_{i+1}]
+// with the input at t_{i+1}.
 int vf_run_planar_law(const vf_law_parameters* params, int n, const double* time,
                       const double* vx, const double* vy, const double* normal_force, double z0x,
                       double z0y, double* fx, double* fy, double* zx, double* zy) {

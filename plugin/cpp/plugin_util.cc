@@ -48,19 +48,6 @@ std::string ConfigFingerprint(const mjModel* m, int instance) {
   return std::string(m->plugin_attr + begin, m->plugin_attr + end);
 }
 
-bool ConfigUnchanged(const mjModel* m, int instance, const std::string& fingerprint,
-                     std::size_t edge_bytes) {
-  const int begin = m->plugin_attradr[instance];
-  const int end = instance + 1 < m->nplugin ? m->plugin_attradr[instance + 1] : m->npluginattr;
-  const std::size_t size = static_cast<std::size_t>(end - begin);
-  if (size != fingerprint.size()) return false;
-  const char* attr = m->plugin_attr + begin;
-  if (size <= 2 * edge_bytes) return std::memcmp(attr, fingerprint.data(), size) == 0;
-  return std::memcmp(attr, fingerprint.data(), edge_bytes) == 0 &&
-         std::memcmp(attr + size - edge_bytes, fingerprint.data() + size - edge_bytes,
-                     edge_bytes) == 0;
-}
-
 int FindActuator(const mjModel* m, int instance, const char* plugin) {
   int found = -1;
   for (int i = 0; i < m->nu; ++i) {

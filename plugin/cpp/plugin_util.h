@@ -4,6 +4,7 @@
 #define VIBROFRICTION_PLUGIN_UTIL_H_
 
 #include <cstdint>
+#include <cstring>
 #include <memory>
 #include <string>
 #include <utility>
@@ -28,9 +29,20 @@ std::string ConfigFingerprint(const mjModel* m, int instance);
 
 // True when the instance's config bytes equal `fingerprint`; allocates nothing. With
 // `edge_bytes`, a config longer than twice that is compared on its size and its first and last
-// edge_bytes only (the averaged element's table makes its config kilobytes long).
-bool ConfigUnchanged(const mjModel* m, int instance, const std::string& fingerprint,
-                     std::size_t edge_bytes = static_cast<std::size_t>(-1) / 2);
+// edge_bytes only (the averaged element's table makes its config kilobytes long). Inline: the
+// plugins call it every step.
+inline bool ConfigUnchanged(const mjModel* m, int instance, const std::string& fingerprint,
+                            std::size_t edge_bytes = static_cast<std::size_t>(-1) / 2) {
+  const int begin = m->plugin_attradr[instance];
+  const int end = instance + 1 < m->nplugin ? m->plugin_attradr[instance + 1] : m->npluginattr;
+  const std::size_t size = static_cast<std::size_t>(end - begin);
+  if (size != fingerprint.size()) return false;
+  const char* attr = m->plugin_attr + begin;
+  if (size <= 2 * edge_bytes) return std::memcmp(attr, fingerprint.data(), size) == 0;
+  return std::memcmp(attr, fingerprint.data(), edge_bytes) == 0 &&
+         std::memcmp(attr + size - edge_bytes, fingerprint.data() + size - edge_bytes,
+                     edge_bytes) == 0;
+}
 
 // The parsed config of one plugin instance, re-read when stepped with a model whose config
 // bytes differ (rollout and batch can step one mjData with several models; a cached config
@@ -47,22 +59,25 @@ class CachedConfig {
 
   // False when the config of `m` is invalid (the reader has warned, naming the attribute).
   bool Refresh(const mjModel* m, int instance, bool later_in_step = false) {
-    if (later_in_step && m == model_) return valid_;
-    const bool same_model = m == model_;
-    model_ = m;
-    if (same_model ? ConfigUnchanged(m, instance, fingerprint_, kSpotCheckBytes)
-                   : ConfigUnchanged(m, instance, fingerprint_)) {
+    if (m == model_ &&
+        (later_in_step || ConfigUnchanged(m, instance, fingerprint_, kSpotCheckBytes))) {
       return valid_;
     }
-    fingerprint_ = ConfigFingerprint(m, instance);
-    valid_ = read_(m, instance, &config_);
-    return valid_;
+    return Reload(m, instance);
   }
   const Config& operator*() const { return config_; }
   const Config* operator->() const { return &config_; }
 
  private:
   static constexpr std::size_t kSpotCheckBytes = 256;
+  // Another model (or the same one whose spot check failed): compare in full, re-read if needed.
+  bool Reload(const mjModel* m, int instance) {
+    model_ = m;
+    if (ConfigUnchanged(m, instance, fingerprint_)) return valid_;
+    fingerprint_ = ConfigFingerprint(m, instance);
+    valid_ = read_(m, instance, &config_);
+    return valid_;
+  }
   Reader read_;
   Config config_;
   std::string fingerprint_;
