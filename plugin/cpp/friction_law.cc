@@ -20,40 +20,68 @@ double DecayDahlBase(double w_abs, double alpha, double lambda) {
   return w_abs * std::exp(-std::log1p(q) / (alpha - 1.0));
 }
 
-// Dupont's a(z, v) along the direction of motion: zeta = sgn(v) z.
-double DupontShape(double zeta, double z_ba, double z_max) {
-  if (zeta <= z_ba) return 0.0;  // elastic, includes unloading (zeta < 0)
-  if (zeta >= z_max) return 1.0;
-  return 0.5 * std::sin(kPi * (zeta - 0.5 * (z_max + z_ba)) / (z_max - z_ba)) + 0.5;
-}
+// Plastic part of Dupont's law along the travel s = |v| t: d(zeta)/ds = f(zeta),
+// f = 1 - a(zeta) zeta / z_max, decreasing from 1 at z_ba to 0 at z_max (and below 0 beyond).
+struct DupontPlastic {
+  double z_ba, z_max, mid, phase_per_m;
+  DupontPlastic(double breakaway, double maximum)
+      : z_ba(breakaway), z_max(maximum), mid(0.5 * (maximum + breakaway)),
+        phase_per_m(kPi / (maximum - breakaway)) {}
 
-double DupontShapeSlope(double zeta, double z_ba, double z_max) {
-  if (zeta <= z_ba || zeta >= z_max) return 0.0;
-  const double width = z_max - z_ba;
-  return 0.5 * kPi / width * std::cos(kPi * (zeta - 0.5 * (z_max + z_ba)) / width);
-}
-
-// One backward-Euler step of d(zeta)/dt = speed (1 - a(zeta) zeta / z_max) on [z_ba, z_max].
-// The right-hand side decreases in zeta, so the root is unique and lies in [zeta0, z_max]:
-// safeguarded Newton never leaves that bracket.
-double DupontPlasticStep(double zeta0, double speed_dt, double z_ba, double z_max) {
-  auto residual = [&](double zeta) {
-    return zeta - zeta0 - speed_dt * (1.0 - DupontShape(zeta, z_ba, z_max) * zeta / z_max);
-  };
-  double lo = zeta0, hi = z_max, zeta = zeta0;
-  for (int iter = 0; iter < 50; ++iter) {
-    const double r = residual(zeta);
-    if (std::fabs(r) <= 1e-14 * z_max) break;
-    if (r < 0) lo = zeta; else hi = zeta;
-    const double a = DupontShape(zeta, z_ba, z_max);
-    const double slope = 1.0 + speed_dt * (DupontShapeSlope(zeta, z_ba, z_max) * zeta + a) / z_max;
-    double next = zeta - r / slope;
-    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
-    zeta = next;
-    if (hi - lo <= 1e-15 * z_max) break;
+  // a(zeta) and da/dzeta (sine and cosine of one angle).
+  double Shape(double zeta, double* slope) const {
+    *slope = 0.0;
+    if (zeta <= z_ba) return 0.0;
+    if (zeta >= z_max) return 1.0;
+    const double angle = phase_per_m * (zeta - mid);
+    *slope = 0.5 * phase_per_m * std::cos(angle);
+    return 0.5 * std::sin(angle) + 0.5;
   }
-  return zeta;
+  double Rate(double zeta) const {
+    double slope;
+    return 1.0 - Shape(zeta, &slope) * zeta / z_max;
+  }
+
+  // The root of zeta = base + c f(zeta), c > 0: a backward-Euler step (base = zeta0, c = h) or a
+  // trapezoidal one (base = zeta0 + h f(zeta0)/2, c = h/2). The residual increases in zeta and
+  // the root lies between base and the explicit predictor base + c f(base); a root beyond z_max
+  // (possible only for c of the order of z_max) is cut to z_max, where the exact solution stops:
+  // zeta never passes z_max. Safeguarded Newton from the predictor: two or three iterations.
+  double Solve(double base, double c) const {
+    if (base >= z_max) return z_max;
+    double lo = base;
+    double hi = std::min(z_max, base + c * Rate(base));
+    double zeta = hi;
+    for (int iter = 0; iter < 50; ++iter) {
+      double a_slope;
+      const double a = Shape(zeta, &a_slope);
+      const double r = zeta - base - c * (1.0 - a * zeta / z_max);
+      if (std::fabs(r) <= 1e-14 * z_max) break;
+      if (r < 0) {
+        if (zeta >= z_max) return z_max;
+        lo = zeta;
+      } else {
+        hi = zeta;
+      }
+      double next = zeta - r / (1.0 + c * (a_slope * zeta + a) / z_max);
+      if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+      zeta = next;
+      if (hi - lo <= 1e-15 * z_max) break;
+    }
+    return zeta;
+  }
+};
+
+// Dupont's a(z, v) along the direction of motion: zeta = sgn(v) z (0 below z_ba, which
+// includes unloading, zeta < 0).
+double DupontShape(double zeta, double z_ba, double z_max) {
+  double slope;
+  return DupontPlastic(z_ba, z_max).Shape(zeta, &slope);
 }
+
+// Trapezoidal substeps per transition width z_max - z_ba: resolves the sine transition (second
+// order; the mean drive force changes < 0.1 % against 4x more substeps).
+constexpr double kDupontSubstepsPerTransition = 5.0;
 
 double AdvanceDupont(const LawParameters& p, const LawInput& in, double z, double dt) {
   const double v = in.velocity;
@@ -75,11 +103,18 @@ double AdvanceDupont(const LawParameters& p, const LawInput& in, double z, doubl
   if (zeta >= z_max) {
     return s * (z_max + (zeta - z_max) * std::exp(-speed * time_left / z_max));
   }
-  // Plastic segment: backward-Euler substeps, enough to resolve the sine transition.
+  // Plastic segment: trapezoidal substeps, enough to resolve the sine transition.
+  const DupontPlastic plastic(z_ba, z_max);
   const double travel = speed * time_left;
-  const int substeps = std::clamp(static_cast<int>(std::ceil(20.0 * travel / (z_max - z_ba))), 1, 64);
-  const double speed_dt = travel / substeps;
-  for (int i = 0; i < substeps; ++i) zeta = DupontPlasticStep(zeta, speed_dt, z_ba, z_max);
+  const int substeps = std::clamp(
+      static_cast<int>(std::ceil(kDupontSubstepsPerTransition * travel / (z_max - z_ba))), 1, 64);
+  const double h = travel / substeps;
+  double rate = plastic.Rate(zeta);
+  for (int i = 0; i < substeps; ++i) {
+    const double base = zeta + 0.5 * h * rate;
+    zeta = plastic.Solve(base, 0.5 * h);
+    rate = zeta < z_max ? (zeta - base) / (0.5 * h) : 0.0;  // f(zeta) from the step equation
+  }
   return s * zeta;
 }
 
@@ -255,20 +290,24 @@ void AdvancePlanarDupont(const LawParameters& p, const LawInput& at, const doubl
     z[1] = z_max * dir[1] + (z[1] - z_max * dir[1]) * decay;
     return;
   }
-  // Backward Euler: z1 = (z0 + h dir) / (1 + h a(|z1|) / z_max) keeps the direction of
-  // y = z0 + h dir, and |z1| solves the 1D Dupont step equation with zeta0 = |y| - h.
+  // Trapezoidal, as the 1D law: z1 = z0 + h (F(z0) + F(z1)) / 2 with F(z) = dir - a(|z|) z / z_max
+  // gives z1 (1 + h a(|z1|) / (2 z_max)) = y = z0 + h dir - h a(|z0|) z0 / (2 z_max): z1 keeps
+  // the direction of y, and |z1| solves the 1D step equation with base |y| - h/2, c = h/2.
+  const DupontPlastic plastic(z_ba, z_max);
   const double travel = speed * time_left;
-  const int substeps =
-      std::clamp(static_cast<int>(std::ceil(20.0 * travel / (z_max - z_ba))), 1, 64);
+  const int substeps = std::clamp(
+      static_cast<int>(std::ceil(kDupontSubstepsPerTransition * travel / (z_max - z_ba))), 1, 64);
   const double h = travel / substeps;
   for (int i = 0; i < substeps; ++i) {
-    const double y[2] = {z[0] + h * dir[0], z[1] + h * dir[1]};
+    double slope;
+    const double shrink = 0.5 * h * plastic.Shape(std::hypot(z[0], z[1]), &slope) / z_max;
+    const double y[2] = {z[0] * (1.0 - shrink) + h * dir[0], z[1] * (1.0 - shrink) + h * dir[1]};
     const double y_norm = std::hypot(y[0], y[1]);
     if (!(y_norm > 0)) {
       z[0] = z[1] = 0.0;
       continue;
     }
-    const double radius = DupontPlasticStep(y_norm - h, h, z_ba, z_max);
+    const double radius = plastic.Solve(y_norm - 0.5 * h, 0.5 * h);
     z[0] = y[0] * (radius / y_norm);
     z[1] = y[1] * (radius / y_norm);
   }

@@ -104,10 +104,10 @@ bool PlanarTransmission::FromModel(const mjModel* m, int instance, const char* p
 void ComputePlanarResponse(const mjModel* m, mjData* d, const int output[2],
                            std::vector<mjtNum>* scratch, PlanarResponse* response) {
   const int nv = m->nv;
-  scratch->assign(4 * nv, 0.0);
+  scratch->assign(5 * nv, 0.0);
   mjtNum* force = scratch->data();
-  mjtNum* solved = force + nv;
-  mjtNum* row = force + 2 * nv;
+  mjtNum* rows = force + nv;           // J' of the two outputs
+  mjtNum* response_rows = force + 3 * nv;  // M^-1 J'
   // qfrc_constraint still holds the previous step's constraint force (contacts, limits): with
   // it, a part held or pushed by another body sees that push in its friction solve.
   for (int i = 0; i < nv; ++i) {
@@ -120,27 +120,28 @@ void ComputePlanarResponse(const mjModel* m, mjData* d, const int output[2],
       force[d->moment_colind[adr + k]] += d->actuator_moment[adr + k] * d->actuator_force[j];
     }
   }
-  auto project = [&](int out, const mjtNum* vec) {
-    const int adr = d->moment_rowadr[out];
-    double value = 0.0;
-    for (int k = 0; k < d->moment_rownnz[out]; ++k) {
-      value += d->actuator_moment[adr + k] * vec[d->moment_colind[adr + k]];
-    }
-    return value;
-  };
-  const double dt = m->opt.timestep;
-  mj_solveM(m, d, solved, force, 1);
-  for (int k = 0; k < 2; ++k) {
-    response->v_free[k] = d->actuator_velocity[output[k]] + dt * project(output[k], solved);
-  }
   for (int col = 0; col < 2; ++col) {
-    mju_zero(row, nv);
     const int adr = d->moment_rowadr[output[col]];
     for (int k = 0; k < d->moment_rownnz[output[col]]; ++k) {
-      row[d->moment_colind[adr + k]] = d->actuator_moment[adr + k];
+      rows[col * nv + d->moment_colind[adr + k]] = d->actuator_moment[adr + k];
     }
-    mj_solveM(m, d, solved, row, 1);
-    for (int r = 0; r < 2; ++r) response->B[2 * r + col] = dt * project(output[r], solved);
+  }
+  // Two solves, M^-1 J': M is symmetric, so J M^-1 force = (M^-1 J') . force.
+  mj_solveM(m, d, response_rows, rows, 2);
+  const double dt = m->opt.timestep;
+  for (int col = 0; col < 2; ++col) {
+    const mjtNum* response_row = response_rows + col * nv;
+    double acceleration_free = 0.0;
+    for (int i = 0; i < nv; ++i) acceleration_free += response_row[i] * force[i];
+    response->v_free[col] = d->actuator_velocity[output[col]] + dt * acceleration_free;
+    for (int r = 0; r < 2; ++r) {
+      const int adr = d->moment_rowadr[output[r]];
+      double value = 0.0;
+      for (int k = 0; k < d->moment_rownnz[output[r]]; ++k) {
+        value += d->actuator_moment[adr + k] * response_row[d->moment_colind[adr + k]];
+      }
+      response->B[2 * r + col] = dt * value;
+    }
   }
   // Symmetrize (J M^-1 J' is symmetric up to rounding).
   const double offdiag = 0.5 * (response->B[1] + response->B[2]);

@@ -80,13 +80,13 @@ StepResponse ComputeStepResponse(const mjModel* m, mjData* d, int out,
   const int nv = m->nv;
   if (scratch->size() < static_cast<std::size_t>(3 * nv)) scratch->resize(3 * nv);
   mjtNum* force = scratch->data();
-  mjtNum* solved = force + nv;
-  mjtNum* row = force + 2 * nv;
-  mju_zero(row, nv);
+  mjtNum* row = force + nv;
+  mjtNum* response_row = force + 2 * nv;
 
   // Generalized force known so far: passive - bias + applied + other actuators' outputs.
   for (int i = 0; i < nv; ++i) {
     force[i] = d->qfrc_passive[i] - d->qfrc_bias[i] + d->qfrc_applied[i];
+    row[i] = 0;
   }
   for (int j = 0; j < m->nout; ++j) {
     if (j == out || d->actuator_force[j] == 0) continue;
@@ -99,15 +99,13 @@ StepResponse ComputeStepResponse(const mjModel* m, mjData* d, int out,
   const int nnz = d->moment_rownnz[out];
   for (int k = 0; k < nnz; ++k) row[d->moment_colind[adr + k]] = d->actuator_moment[adr + k];
 
+  // One solve, M^-1 J': M is symmetric, so J M^-1 force = (M^-1 J') . force.
+  mj_solveM(m, d, response_row, row, 1);
   StepResponse response;
-  mj_solveM(m, d, solved, force, 1);
   double acceleration_free = 0.0;
+  for (int i = 0; i < nv; ++i) acceleration_free += response_row[i] * force[i];
   for (int k = 0; k < nnz; ++k) {
-    acceleration_free += d->actuator_moment[adr + k] * solved[d->moment_colind[adr + k]];
-  }
-  mj_solveM(m, d, solved, row, 1);
-  for (int k = 0; k < nnz; ++k) {
-    response.inverse_mass += d->actuator_moment[adr + k] * solved[d->moment_colind[adr + k]];
+    response.inverse_mass += d->actuator_moment[adr + k] * response_row[d->moment_colind[adr + k]];
   }
   response.velocity_free = d->actuator_velocity[out] + m->opt.timestep * acceleration_free;
   return response;
