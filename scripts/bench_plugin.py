@@ -15,11 +15,14 @@ k_t 80 N/um, v_d 0.5 mm/s, f 4 kHz, here v_a = 3 mm/s). Not a test: it prints, s
 """
 from __future__ import annotations
 
+import os
+
+# Before numpy loads: idle OpenBLAS threads spin on the second core and disturb the timings.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 import argparse
 import contextlib
 import json
-import math
-import os
 import platform
 import sys
 import time
@@ -47,7 +50,6 @@ QUICK_TIMESTEPS_S = (1e-6, 1e-5, 1e-4)
 AMPLITUDES_M_PER_S = (0.75e-3, 3e-3)
 FRICTIONLOSS_SOLREF = (2e-6, 1.0)
 BARE = "bare rig (friction element removed)"
-WITHOUT_SENSOR = "native plugin, dahl, without its state sensor"
 BUILTIN_STATE = "built-in integrator actuator on the bare rig (one act, zero force)"
 
 
@@ -72,19 +74,26 @@ def _no_callback() -> Iterator[None]:
 
 
 def speed(quick: bool) -> dict:
-    """Steps/s of each model: interleaved rounds (every model once per round), best round."""
+    """Steps/s of each model and its cost per step over the bare rig.
+
+    Rounds of pairs: in each round every model runs right next to a run of the bare rig (in
+    alternating order), and its cost in that round is its time over that bare run's time; the
+    table gives the median over rounds with the interquartile range (a shared machine drifts,
+    but little within a pair). Steps/s are from each model's best run.
+    """
     nstep = 5000 if quick else 20000
-    rounds = 5 if quick else 15
+    rounds = 5 if quick else 25
     rig = RigParameters(vibration_velocity_amplitude_m_per_s=VA_M_PER_S)
     models: dict[str, tuple[mujoco.MjModel, Callable[[], contextlib.AbstractContextManager]]] = {
         BARE: (bare_rig_spec(rig, timestep_s=TIMESTEP_S).compile(), _no_callback)}
     for law in LAWS:
-        models[f"native plugin, {law}"] = (
+        # The element alone: its state sensor is an optional plugin of its own.
+        element = rig_module.build_spec(rig, default_friction(law, rig), TIMESTEP_S)
+        element.delete(element.sensor("friction_state"))
+        models[f"native plugin, {law}"] = (element.compile(), _no_callback)
+    for law in LAWS:
+        models[f"native plugin, {law}, with its state sensor"] = (
             rig_module.build_model(rig, default_friction(law, rig), TIMESTEP_S), _no_callback)
-    # The element without its (optional) state sensor.
-    no_sensor = rig_module.build_spec(rig, default_friction("dahl", rig), TIMESTEP_S)
-    no_sensor.delete(no_sensor.sensor("friction_state"))
-    models[WITHOUT_SENSOR] = (no_sensor.compile(), _no_callback)
     # What MuJoCo itself charges for an actuator with one activation state (no friction).
     models[BUILTIN_STATE] = (_bare_with_integrator_actuator(rig), _no_callback)
     dahl = default_friction("dahl", rig)
@@ -92,28 +101,44 @@ def speed(quick: bool) -> dict:
     models["Python callback (mjcb_act_dyn), dahl"] = (
         python_law_spec(rig, dahl, timestep_s=TIMESTEP_S).compile(),
         lambda: act_dyn_callback(dahl_zdot, contact))
-    best = {name: math.inf for name in models}
     runs = {name: (model, mujoco.MjData(model), _initial_state(model)[None])
             for name, (model, _) in models.items()}
+
+    def run(name: str) -> float:
+        model, data, state = runs[name]
+        with models[name][1]():
+            return _cpu_seconds(lambda: mj_rollout.rollout(model, data, state, nstep=nstep))
+
+    seconds: dict[str, list[float]] = {name: [] for name in models}
+    ratios: dict[str, list[float]] = {name: [] for name in models if name != BARE}
     for round_index in range(rounds + 1):  # round 0 warms up and is not counted
-        for name, (model, data, state) in runs.items():
-            with models[name][1]():
-                seconds = _cpu_seconds(
-                    lambda: mj_rollout.rollout(model, data, state, nstep=nstep))
+        for pair_index, name in enumerate(ratios):
+            if (round_index + pair_index) % 2:
+                bare_s, model_s = run(BARE), run(name)
+            else:
+                model_s, bare_s = run(name), run(BARE)
             if round_index:
-                best[name] = min(best[name], seconds)
-    rows = {name: nstep / seconds for name, seconds in best.items()}
+                seconds[BARE].append(bare_s)
+                seconds[name].append(model_s)
+                ratios[name].append(model_s / bare_s)
+    rows = {name: nstep / min(times) for name, times in seconds.items()}
+    overhead: dict[str, list[float]] = {BARE: [0.0, 0.0, 0.0]}
+    for name, values in ratios.items():
+        ratio_pct = 100 * (np.array(values) - 1)
+        overhead[name] = [float(np.percentile(ratio_pct, q)) for q in (50, 25, 75)]
     simulated_s = 0.01 if quick else 0.03
     reference_s = min(_cpu_seconds(lambda: simulate_reference(rig, dahl, simulated_s,
                                                               sample_dt_s=TIMESTEP_S))
                       for _ in range(1 if quick else 3))
-    rows["scipy reference (solve_ivp LSODA, rtol 1e-8), dahl"] = \
-        simulated_s / reference_s / TIMESTEP_S
-    bare = rows[BARE]
+    reference = "scipy reference (solve_ivp LSODA, rtol 1e-8), dahl"
+    rows[reference] = simulated_s / reference_s / TIMESTEP_S
+    ratio = 100 * (rows[BARE] / rows[reference] - 1)
+    overhead[reference] = [ratio, ratio, ratio]
     return {"timestep_s": TIMESTEP_S, "nstep": nstep, "rounds": rounds,
             "steps_per_s": rows,
-            "overhead_over_bare_pct": {name: 100 * (bare / value - 1)
-                                       for name, value in rows.items()}}
+            "overhead_over_bare_pct": {name: value[0] for name, value in overhead.items()},
+            "overhead_over_bare_quartiles_pct": {name: value[1:]
+                                                 for name, value in overhead.items()}}
 
 
 def _bare_with_integrator_actuator(rig: RigParameters) -> mujoco.MjModel:
@@ -181,12 +206,22 @@ def _record(out: dict, name: str, va: float, means: dict[float, float]) -> None:
 def markdown(result: dict) -> str:
     s = result["speed"]
     lines = [f"### Speed (paper rig, v_a {VA_M_PER_S * 1e3:g} mm/s, dt {s['timestep_s']:g} s, "
-             f"one thread, CPU time, best of {s['rounds']} rounds of {s['nstep']} steps)", "",
-             "| model | steps/s | cost per step vs bare rig |", "|---|---:|---:|"]
+             f"one thread, CPU time, {s['rounds']} interleaved rounds of {s['nstep']} steps)",
+             "",
+             "| model | steps/s (best round) | cost per step vs bare rig: median (quartiles) "
+             "of the rounds |", "|---|---:|---:|"]
     for name, value in s["steps_per_s"].items():
         overhead = s["overhead_over_bare_pct"][name]
-        cost = "-" if name == BARE else f"{overhead:+.1f} %"
+        low, high = s["overhead_over_bare_quartiles_pct"][name]
+        if name == BARE:
+            cost = "-"
+        elif low == high:  # timed separately (scipy)
+            cost = f"{overhead:+.0f} %"
+        else:
+            cost = f"{overhead:+.1f} % ({low:+.1f} to {high:+.1f})"
         lines.append(f"| {name} | {value:,.0f} | {cost} |")
+    if "accuracy" not in result:
+        return "\n".join(lines)
     a = result["accuracy"]
     timesteps = a["timesteps_s"][1:]
     lines += ["", "### Mean drive force: relative error (%) against dt = 1e-6 s", "",
@@ -221,12 +256,15 @@ def main(argv: list[str] | None = None) -> int:
                         help="fewer repeats, shorter runs, three timesteps, v_a 3 mm/s only")
     parser.add_argument("--json", type=Path, default=None, metavar="FILE",
                         help="also write the numbers as JSON")
+    parser.add_argument("--speed-only", action="store_true",
+                        help="skip the timestep-accuracy part (a few minutes)")
     args = parser.parse_args(argv)
     vibrofriction.load()
     print("speed ...", file=sys.stderr, flush=True)
     result = {"machine": machine(), "quick": args.quick, "speed": speed(args.quick)}
-    print("accuracy ...", file=sys.stderr, flush=True)
-    result["accuracy"] = accuracy(args.quick)
+    if not args.speed_only:
+        print("accuracy ...", file=sys.stderr, flush=True)
+        result["accuracy"] = accuracy(args.quick)
     m = result["machine"]
     print(f"machine: {m['cpu']}, {m['cores']} cores, Python {m['python']}, "
           f"MuJoCo {m['mujoco']}\n")

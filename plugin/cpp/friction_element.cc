@@ -119,12 +119,12 @@ void FrictionElement::Compute(const mjModel* m, mjData* d, int instance) {
   double friction;
   if (HasDeflection(p.law)) {
     // Damping terms at the end-of-step velocity (see ImplicitStateForce).
-    const StepResponse response = ComputeStepResponse(m, d, config_->output, &scratch_);
+    const StepResponse response = ComputeStepResponse(m, d, config_->output, &response_workspace_);
     friction = ImplicitStateForce(p, in, z, response.velocity_free,
                                   m->opt.timestep * response.inverse_mass);
   } else {
     // Rigid Coulomb: the force that stops the transmission within this step, if admissible.
-    const StepResponse response = ComputeStepResponse(m, d, config_->output, &scratch_);
+    const StepResponse response = ComputeStepResponse(m, d, config_->output, &response_workspace_);
     const double stick_force =
         response.inverse_mass > 0
             ? response.velocity_free / (m->opt.timestep * response.inverse_mass)

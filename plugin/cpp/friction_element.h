@@ -55,7 +55,7 @@ class FrictionElement {
   LawInput Input(const mjModel* m, const mjData* d, int instance, double velocity) const;
 
   CachedConfig<FrictionConfig> config_;
-  std::vector<mjtNum> scratch_;
+  StepResponseWorkspace response_workspace_;
 };
 
 }  // namespace vibrofriction

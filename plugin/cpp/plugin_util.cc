@@ -75,18 +75,25 @@ double TransmissionVelocity(const mjModel* m, const mjData* d, int out) {
   return velocity;
 }
 
+namespace {
+
+template <class T>
+bool SameValues(const std::vector<T>& stored, const T* values, std::size_t n) {
+  return stored.size() == n && std::memcmp(stored.data(), values, n * sizeof(T)) == 0;
+}
+
+}  // namespace
+
 StepResponse ComputeStepResponse(const mjModel* m, mjData* d, int out,
-                                 std::vector<mjtNum>* scratch) {
+                                 StepResponseWorkspace* w) {
   const int nv = m->nv;
-  if (scratch->size() < static_cast<std::size_t>(3 * nv)) scratch->resize(3 * nv);
-  mjtNum* force = scratch->data();
-  mjtNum* row = force + nv;
-  mjtNum* response_row = force + 2 * nv;
+  const std::size_t nC = static_cast<std::size_t>(m->nC);
+  w->force.resize(nv);
+  mjtNum* force = w->force.data();
 
   // Generalized force known so far: passive - bias + applied + other actuators' outputs.
   for (int i = 0; i < nv; ++i) {
     force[i] = d->qfrc_passive[i] - d->qfrc_bias[i] + d->qfrc_applied[i];
-    row[i] = 0;
   }
   for (int j = 0; j < m->nout; ++j) {
     if (j == out || d->actuator_force[j] == 0) continue;
@@ -97,16 +104,31 @@ StepResponse ComputeStepResponse(const mjModel* m, mjData* d, int out,
   }
   const int adr = d->moment_rowadr[out];
   const int nnz = d->moment_rownnz[out];
-  for (int k = 0; k < nnz; ++k) row[d->moment_colind[adr + k]] = d->actuator_moment[adr + k];
+  const mjtNum* moment = d->actuator_moment + adr;
+  const int* colind = d->moment_colind + adr;
 
-  // One solve, M^-1 J': M is symmetric, so J M^-1 force = (M^-1 J') . force.
-  mj_solveM(m, d, response_row, row, 1);
+  // M^-1 J' (one solve; M is symmetric, so J M^-1 force = (M^-1 J') . force), reused while the
+  // factorization of M and the row J are unchanged.
+  const bool reuse = w->solution.size() == static_cast<std::size_t>(nv) &&
+                     w->factor.size() == nC + nv &&
+                     std::memcmp(w->factor.data(), d->qLD, nC * sizeof(mjtNum)) == 0 &&
+                     std::memcmp(w->factor.data() + nC, d->qLDiagInv, nv * sizeof(mjtNum)) == 0 &&
+                     SameValues(w->moment, moment, nnz) && SameValues(w->colind, colind, nnz);
+  if (!reuse) {
+    w->factor.assign(d->qLD, d->qLD + nC);
+    w->factor.insert(w->factor.end(), d->qLDiagInv, d->qLDiagInv + nv);
+    w->moment.assign(moment, moment + nnz);
+    w->colind.assign(colind, colind + nnz);
+    std::vector<mjtNum> row(nv, 0.0);
+    for (int k = 0; k < nnz; ++k) row[colind[k]] = moment[k];
+    w->solution.resize(nv);
+    mj_solveM(m, d, w->solution.data(), row.data(), 1);
+  }
+  const mjtNum* response_row = w->solution.data();
   StepResponse response;
   double acceleration_free = 0.0;
   for (int i = 0; i < nv; ++i) acceleration_free += response_row[i] * force[i];
-  for (int k = 0; k < nnz; ++k) {
-    response.inverse_mass += d->actuator_moment[adr + k] * response_row[d->moment_colind[adr + k]];
-  }
+  for (int k = 0; k < nnz; ++k) response.inverse_mass += moment[k] * response_row[colind[k]];
   response.velocity_free = d->actuator_velocity[out] + m->opt.timestep * acceleration_free;
   return response;
 }

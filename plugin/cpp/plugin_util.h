@@ -121,8 +121,19 @@ struct StepResponse {
   double velocity_free = 0.0;
   double inverse_mass = 0.0;
 };
+
+// Working memory of ComputeStepResponse, one per plugin instance. It keeps M^-1 J' of the last
+// call and reuses it while the factorization of M and the row J are bitwise the same (a rig of
+// slide joints: every step; an arm whose inertia changes: never, at the cost of a comparison).
+struct StepResponseWorkspace {
+  std::vector<mjtNum> force;     // generalized force known so far (nv)
+  std::vector<mjtNum> factor;    // qLD and qLDiagInv at the last solve (nC + nv)
+  std::vector<mjtNum> moment;    // the row J (sparse values and columns) at the last solve
+  std::vector<int> colind;
+  std::vector<mjtNum> solution;  // M^-1 J' of the last solve (nv)
+};
 StepResponse ComputeStepResponse(const mjModel* m, mjData* d, int out,
-                                 std::vector<mjtNum>* scratch);
+                                 StepResponseWorkspace* workspace);
 
 }  // namespace vibrofriction
 

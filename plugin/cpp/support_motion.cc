@@ -80,7 +80,7 @@ void SupportMotion::Compute(const mjModel* m, mjData* d, int instance) {
   // s_{n+1} = s_n + dt v_{n+1} then lands on it (no drift in position or phase).
   const double target = m->actuator_length0[out] + config_->Displacement(d->time + dt, scale);
   const double velocity_target = (target - d->actuator_length[out]) / dt;
-  const StepResponse response = ComputeStepResponse(m, d, out, &scratch_);
+  const StepResponse response = ComputeStepResponse(m, d, out, &response_workspace_);
   d->actuator_force[out] = response.inverse_mass > 0
                                ? (velocity_target - response.velocity_free) /
                                      (dt * response.inverse_mass)

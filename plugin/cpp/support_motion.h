@@ -47,7 +47,7 @@ class SupportMotion {
   SupportMotion(MotionConfig config, std::string fingerprint);
 
   CachedConfig<MotionConfig> config_;
-  std::vector<mjtNum> scratch_;
+  StepResponseWorkspace response_workspace_;
 };
 
 }  // namespace vibrofriction
