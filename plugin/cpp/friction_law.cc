@@ -37,35 +37,38 @@ struct DupontPlastic {
     *slope = 0.5 * phase_per_m * std::cos(angle);
     return 0.5 * std::sin(angle) + 0.5;
   }
-  double Rate(double zeta) const {
-    double slope;
-    return 1.0 - Shape(zeta, &slope) * zeta / z_max;
-  }
-
   // The root of zeta = base + c f(zeta), c > 0: a backward-Euler step (base = zeta0, c = h) or a
-  // trapezoidal one (base = zeta0 + h f(zeta0)/2, c = h/2). The residual increases in zeta and
-  // the root lies between base and the explicit predictor base + c f(base); a root beyond z_max
-  // (possible only for c of the order of z_max) is cut to z_max, where the exact solution stops:
-  // zeta never passes z_max. Safeguarded Newton from the predictor: two or three iterations.
-  double Solve(double base, double c) const {
+  // trapezoidal one (base = zeta0 + h f(zeta0)/2, c = h/2). The residual increases in zeta; the
+  // root lies between base and base + c rate_bound for any rate_bound >= f(base) (f decreases),
+  // and a root beyond z_max (only for c of the order of z_max) is cut to z_max, where the exact
+  // solution stops: zeta never passes z_max. Safeguarded Newton from `guess` (clamped into the
+  // bracket); a Newton step below 1e-7 z_max is accepted without another evaluation, its error
+  // being of the order of step^2 / z_max (quadratic convergence).
+  double Solve(double base, double c, double rate_bound, double guess) const {
     if (base >= z_max) return z_max;
     double lo = base;
-    double hi = std::min(z_max, base + c * Rate(base));
-    double zeta = hi;
+    double hi = std::min(z_max, base + c * rate_bound);
+    double zeta = std::clamp(guess, lo, hi);
     for (int iter = 0; iter < 50; ++iter) {
       double a_slope;
       const double a = Shape(zeta, &a_slope);
       const double r = zeta - base - c * (1.0 - a * zeta / z_max);
-      if (std::fabs(r) <= 1e-14 * z_max) break;
+      if (r == 0) return zeta;
       if (r < 0) {
         if (zeta >= z_max) return z_max;
         lo = zeta;
       } else {
         hi = zeta;
       }
-      double next = zeta - r / (1.0 + c * (a_slope * zeta + a) / z_max);
-      if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
-      zeta = next;
+      const double step = r / (1.0 + c * (a_slope * zeta + a) / z_max);
+      const double next = zeta - step;
+      if (!(next > lo && next < hi)) {
+        zeta = 0.5 * (lo + hi);  // bisect
+      } else if (std::fabs(step) <= 1e-7 * z_max) {
+        return next;
+      } else {
+        zeta = next;
+      }
       if (hi - lo <= 1e-15 * z_max) break;
     }
     return zeta;
@@ -110,10 +113,15 @@ double AdvanceDupont(const LawParameters& p, const LawInput& in, double z, doubl
   const int substeps = std::clamp(
       static_cast<int>(std::ceil(kDupontSubstepsPerTransition * travel / (z_max - z_ba))), 1, 64);
   const double h = travel / substeps;
-  double rate = plastic.Rate(zeta);
+  double a_slope;
+  const double a = plastic.Shape(zeta, &a_slope);
+  double rate = 1.0 - a * zeta / z_max;
+  const double rate_slope = -(a_slope * zeta + a) / z_max;  // df/dzeta, <= 0
   for (int i = 0; i < substeps; ++i) {
     const double base = zeta + 0.5 * h * rate;
-    zeta = plastic.Solve(base, 0.5 * h);
+    // Linearly implicit guess (error O(h^3)); the slope of the first substep serves them all.
+    const double guess = zeta + h * rate / (1.0 - 0.5 * h * rate_slope);
+    zeta = plastic.Solve(base, 0.5 * h, rate, guess);
     rate = zeta < z_max ? (zeta - base) / (0.5 * h) : 0.0;  // f(zeta) from the step equation
   }
   return s * zeta;
@@ -308,7 +316,8 @@ void AdvancePlanarDupont(const LawParameters& p, const LawInput& at, const doubl
       z[0] = z[1] = 0.0;
       continue;
     }
-    const double radius = plastic.Solve(y_norm - 0.5 * h, 0.5 * h);
+    // f <= 1 bounds the rate; the guess is the explicit end point of the bracket.
+    const double radius = plastic.Solve(y_norm - 0.5 * h, 0.5 * h, 1.0, y_norm);
     z[0] = y[0] * (radius / y_norm);
     z[1] = y[1] * (radius / y_norm);
   }

@@ -3,7 +3,9 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <cstdint>
 #include <cstring>
+#include <type_traits>
 
 namespace vibrofriction {
 
@@ -77,9 +79,18 @@ double TransmissionVelocity(const mjModel* m, const mjData* d, int out) {
 
 namespace {
 
+// Bitwise equality of a few numbers, inline (memcmp calls cost more than these short rows).
 template <class T>
-bool SameValues(const std::vector<T>& stored, const T* values, std::size_t n) {
-  return stored.size() == n && std::memcmp(stored.data(), values, n * sizeof(T)) == 0;
+bool SameBits(const T* a, const T* b, std::size_t n) {
+  static_assert(sizeof(T) == 8 || sizeof(T) == 4);
+  using Word = std::conditional_t<sizeof(T) == 8, std::uint64_t, std::uint32_t>;
+  for (std::size_t i = 0; i < n; ++i) {
+    Word x, y;
+    std::memcpy(&x, a + i, sizeof(T));
+    std::memcpy(&y, b + i, sizeof(T));
+    if (x != y) return false;
+  }
+  return true;
 }
 
 }  // namespace
@@ -111,9 +122,11 @@ StepResponse ComputeStepResponse(const mjModel* m, mjData* d, int out,
   // factorization of M and the row J are unchanged.
   const bool reuse = w->solution.size() == static_cast<std::size_t>(nv) &&
                      w->factor.size() == nC + nv &&
-                     std::memcmp(w->factor.data(), d->qLD, nC * sizeof(mjtNum)) == 0 &&
-                     std::memcmp(w->factor.data() + nC, d->qLDiagInv, nv * sizeof(mjtNum)) == 0 &&
-                     SameValues(w->moment, moment, nnz) && SameValues(w->colind, colind, nnz);
+                     w->moment.size() == static_cast<std::size_t>(nnz) &&
+                     SameBits(w->factor.data(), d->qLD, nC) &&
+                     SameBits(w->factor.data() + nC, d->qLDiagInv, nv) &&
+                     SameBits(w->moment.data(), moment, nnz) &&
+                     SameBits(w->colind.data(), colind, nnz);
   if (!reuse) {
     w->factor.assign(d->qLD, d->qLD + nC);
     w->factor.insert(w->factor.end(), d->qLDiagInv, d->qLDiagInv + nv);
