@@ -96,7 +96,7 @@ inline double UndampedStateForce(const LawParameters& p, double velocity, double
 double DeflectionRate(const LawParameters& p, const LawInput& in, double z);
 
 // Deflection after a step dt (s) with the input held constant. Exact for Dahl (any alpha) and
-// LuGre; for Dupont an exact elastic segment then backward-Euler substeps of the plastic part.
+// LuGre; for Dupont an exact elastic segment then trapezoidal substeps of the plastic part.
 // Unconditionally stable: the result never overshoots the steady deflection.
 double AdvanceDeflection(const LawParameters& p, const LawInput& in, double z, double dt);
 
@@ -136,7 +136,7 @@ void PlanarDeflectionRate(const LawParameters& p, const LawInput& in, const doub
                           const double z[2], double rate[2]);
 
 // Advances z over dt with v and the input held constant: exact for Dahl (any alpha) and LuGre,
-// exact elastic segment + backward-Euler plastic substeps for Dupont. Never leaves the disc of
+// exact elastic segment + trapezoidal plastic substeps for Dupont. Never leaves the disc of
 // radius z_max (z_c) when started inside it.
 void AdvancePlanarDeflection(const LawParameters& p, const LawInput& in, const double v[2],
                              double z[2], double dt);
