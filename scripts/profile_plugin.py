@@ -7,7 +7,7 @@ instructions one ``mj_step`` executes, and splits the extra over the bare rig in
 MuJoCo (libmujoco: its per-instance plugin dispatch, the extra actuator and activation), in the
 vibrofriction library (the law) and in the math library (exp, sin). Each count is the
 difference of two runs (5000 and 1000 steps), so start-up work cancels. Not a test; needs
-valgrind on PATH. About a minute per model.
+valgrind on PATH. About half a minute per model.
 
     .venv/bin/python scripts/profile_plugin.py [--laws dahl,lugre] [--json FILE]
 """
@@ -27,6 +27,10 @@ from pathlib import Path
 SHORT_STEPS, LONG_STEPS = 1000, 5000
 LAWS = ("coulomb", "dahl", "dupont", "lugre")
 BARE = "bare"
+# MuJoCo's own cost of an activation (a built-in zero-gain integrator actuator, no plugin) and
+# of one more plugin instance (the element's optional state sensor).
+INTEGRATOR = "integrator"
+DAHL_WITH_SENSOR = "dahl+sensor"
 # libc (malloc, memcpy) also serves Python's start-up, which varies a little between runs: only
 # the math library is a column of its own.
 LIBRARIES = {"libmujoco": "MuJoCo", "libvibrofriction_plugin": "vibrofriction",
@@ -46,6 +50,15 @@ def _child(model: str, nstep: int) -> None:
     rig = RigParameters(vibration_velocity_amplitude_m_per_s=3e-3)
     if model == BARE:
         compiled = bare_rig_spec(rig, timestep_s=1e-5).compile()
+    elif model == INTEGRATOR:
+        spec = bare_rig_spec(rig, timestep_s=1e-5)
+        actuator = spec.add_actuator(name="zero_gain_integrator", target="slider_on_table",
+                                     trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        actuator.dyntype = mujoco.mjtDyn.mjDYN_INTEGRATOR
+        actuator.gainprm[0] = 0.0
+        compiled = spec.compile()
+    elif model == DAHL_WITH_SENSOR:
+        compiled = rig_module.build_spec(rig, default_friction("dahl", rig), 1e-5).compile()
     else:
         spec = rig_module.build_spec(rig, default_friction(model, rig), 1e-5)
         spec.delete(spec.sensor("friction_state"))  # the element alone, as bench_plugin.py
@@ -106,22 +119,25 @@ def main(argv: list[str] | None = None) -> int:
               "valgrind); bench_plugin.py measures time without it", file=sys.stderr)
         return 2
     rows: dict[str, dict[str, float]] = {}
+    models = [BARE, INTEGRATOR, *laws, DAHL_WITH_SENSOR]
     with tempfile.TemporaryDirectory(prefix="vibrofriction-callgrind-") as tmp:
-        for index, model in enumerate([BARE, *laws], start=1):
-            print(f"[{index}/{len(laws) + 1}] callgrind: {model}", file=sys.stderr, flush=True)
+        for index, model in enumerate(models, start=1):
+            print(f"[{index}/{len(models)}] callgrind: {model}", file=sys.stderr, flush=True)
             rows[model] = _per_step(model, Path(tmp))
     bare = rows[BARE]
     columns = ("MuJoCo", "vibrofriction", "math library")
     print(f"\nInstructions per step (rig at v_a = 3 mm/s, dt = 1e-5 s, element without its "
           f"sensor); bare rig: {bare['total']:.0f}")
-    print(f"{'law':10s} {'total':>8s} {'over bare':>10s} " +
+    print(f"{'model':12s} {'total':>8s} {'over bare':>10s} " +
           " ".join(f"{c:>14s}" for c in columns))
-    for model in laws:
+    for model in models[1:]:
         row = rows[model]
         extra = {c: row.get(c, 0.0) - bare.get(c, 0.0) for c in columns}
-        print(f"{model:10s} {row['total']:8.0f} {100 * (row['total'] / bare['total'] - 1):+9.1f}% " +
+        print(f"{model:12s} {row['total']:8.0f} {100 * (row['total'] / bare['total'] - 1):+9.1f}% " +
               " ".join(f"{extra[c]:+14.0f}" for c in columns))
-    print("(columns: extra instructions per step over the bare rig, by library)")
+    print("(columns: extra instructions per step over the bare rig, by library; integrator: a "
+          "built-in zero-gain integrator actuator instead of the element; dahl+sensor: the "
+          "element with its state sensor plugin)")
     if args.json:
         args.json.write_text(json.dumps({"instructions_per_step": rows}, indent=2) + "\n")
     return 0
