@@ -150,6 +150,16 @@ def test_bad_csv_name_is_refused_before_simulating(tmp_path, capsys):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_top_level_help_lists_every_command(capsys):
+    """`vibrofriction --help` formats every command's one-line help (a bare "%" broke it)."""
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--help"])
+    assert exit_info.value.code == 0
+    shown = capsys.readouterr().out
+    for command in ("simulate", "sweep", "reproduce", "compare-builtin", "identify", "convert"):
+        assert command in shown
+
+
 def test_console_script_and_module_entry_point(tmp_path):
     """`python -m vibrofriction sweep --help` and an argparse error exit with code 2."""
     help_run = subprocess.run([sys.executable, "-m", "vibrofriction", "sweep", "--help"],

@@ -120,7 +120,7 @@ StepResponse ComputeStepResponse(const mjModel* m, mjData* d, int out,
 
   // M^-1 J' (one solve; M is symmetric, so J M^-1 force = (M^-1 J') . force), reused while the
   // factorization of M and the row J are unchanged.
-  const bool reuse = w->solution.size() == static_cast<std::size_t>(nv) &&
+  const bool reuse = w->model == m && w->solution.size() == static_cast<std::size_t>(nv) &&
                      w->factor.size() == nC + nv &&
                      w->moment.size() == static_cast<std::size_t>(nnz) &&
                      SameBits(w->factor.data(), d->qLD, nC) &&
@@ -128,6 +128,7 @@ StepResponse ComputeStepResponse(const mjModel* m, mjData* d, int out,
                      SameBits(w->moment.data(), moment, nnz) &&
                      SameBits(w->colind.data(), colind, nnz);
   if (!reuse) {
+    w->model = m;
     w->factor.assign(d->qLD, d->qLD + nC);
     w->factor.insert(w->factor.end(), d->qLDiagInv, d->qLDiagInv + nv);
     w->moment.assign(moment, moment + nnz);

@@ -126,6 +126,7 @@ struct StepResponse {
 // call and reuses it while the factorization of M and the row J are bitwise the same (a rig of
 // slide joints: every step; an arm whose inertia changes: never, at the cost of a comparison).
 struct StepResponseWorkspace {
+  const mjModel* model = nullptr;  // of the last solve (the sparsity of qLD is the model's)
   std::vector<mjtNum> force;     // generalized force known so far (nv)
   std::vector<mjtNum> factor;    // qLD and qLDiagInv at the last solve (nC + nv)
   std::vector<mjtNum> moment;    // the row J (sparse values and columns) at the last solve
