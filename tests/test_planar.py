@@ -144,6 +144,28 @@ def test_force_stays_within_the_friction_bound_under_rotating_motion(law):
     assert cosine > 0.99
 
 
+@pytest.mark.parametrize("travel_over_z_max", (10.0, 1e3, 1e4, 1e5))
+def test_dupont_turn_with_long_steps_ends_along_the_new_motion(travel_over_z_max):
+    """Deflected along x, the contact slides along y for one step of many z_max (a robot
+    timestep after a sharp turn): the plastic substeps must not throw the deflection across the
+    motion (a trapezoid with substeps over 2 z_max flips it; backward Euler damps it)."""
+    friction = FrictionParameters(law="dupont", friction_coefficient=0.3,
+                                  contact_stiffness_N_per_m=1e6)
+    normal = 2.0
+    z_max = 0.3 * normal / 1e6
+    speed = 0.01
+    dt = travel_over_z_max * z_max / speed
+    run = planar.run_planar_law(friction, np.array([0.0, dt]),
+                                np.array([[0.0, speed], [0.0, speed]]), normal_force_N=normal,
+                                initial_deflection_m=(0.85 * z_max, 0.0))
+    z_along_x, z_along_y = run.deflection_m[1]
+    assert abs(z_along_x) <= 0.85 * z_max  # never grows across the motion
+    assert math.hypot(z_along_x, z_along_y) <= z_max * (1 + 1e-12)
+    if travel_over_z_max >= 1e3:  # long past the transition: relaxed onto the new motion
+        assert abs(z_along_x) < 1e-6 * z_max
+        assert z_along_y == pytest.approx(z_max, rel=1e-6)
+
+
 def test_one_axis_kinematic_law_matches_the_1d_law():
     from vibrofriction import laws
     for law in LAWS:

@@ -117,12 +117,17 @@ double AdvanceDupont(const LawParameters& p, const LawInput& in, double z, doubl
   const double a = plastic.Shape(zeta, &a_slope);
   double rate = 1.0 - a * zeta / z_max;
   const double rate_slope = -(a_slope * zeta + a) / z_max;  // df/dzeta, <= 0
+  // Trapezoidal while the substep is short against z_max (always, unless the 64-substep cap
+  // binds: travel > 64 z_max); beyond that backward Euler, which damps the stiff mode for any h
+  // (the planar law needs it; the 1D law follows so that both agree along one axis).
+  const bool trapezoidal = h <= z_max;
+  const double c = trapezoidal ? 0.5 * h : h;
   for (int i = 0; i < substeps; ++i) {
-    const double base = zeta + 0.5 * h * rate;
+    const double base = trapezoidal ? zeta + c * rate : zeta;
     // Linearly implicit guess (error O(h^3)); the slope of the first substep serves them all.
-    const double guess = zeta + h * rate / (1.0 - 0.5 * h * rate_slope);
-    zeta = plastic.Solve(base, 0.5 * h, rate, guess);
-    rate = zeta < z_max ? (zeta - base) / (0.5 * h) : 0.0;  // f(zeta) from the step equation
+    const double guess = zeta + h * rate / (1.0 - c * rate_slope);
+    zeta = plastic.Solve(base, c, rate, guess);
+    rate = zeta < z_max ? (zeta - base) / c : 0.0;  // f(zeta) from the step equation
   }
   return s * zeta;
 }
@@ -307,9 +312,14 @@ void AdvancePlanarDupont(const LawParameters& p, const LawInput& at, const doubl
   const int substeps = std::clamp(
       static_cast<int>(std::ceil(kDupontSubstepsPerTransition * travel / (z_max - z_ba))), 1, 64);
   const double h = travel / substeps;
+  // As the 1D law: trapezoidal while h <= z_max, else backward Euler (y = z0 + h dir, base
+  // |y| - h, c = h). A trapezoid with h > 2 z_max would flip the deflection across the motion.
+  const bool trapezoidal = h <= z_max;
+  const double c = trapezoidal ? 0.5 * h : h;
   for (int i = 0; i < substeps; ++i) {
     double slope;
-    const double shrink = 0.5 * h * plastic.Shape(std::hypot(z[0], z[1]), &slope) / z_max;
+    const double shrink =
+        trapezoidal ? c * plastic.Shape(std::hypot(z[0], z[1]), &slope) / z_max : 0.0;
     const double y[2] = {z[0] * (1.0 - shrink) + h * dir[0], z[1] * (1.0 - shrink) + h * dir[1]};
     const double y_norm = std::hypot(y[0], y[1]);
     if (!(y_norm > 0)) {
@@ -317,7 +327,7 @@ void AdvancePlanarDupont(const LawParameters& p, const LawInput& at, const doubl
       continue;
     }
     // f <= 1 bounds the rate; the guess is the explicit end point of the bracket.
-    const double radius = plastic.Solve(y_norm - 0.5 * h, 0.5 * h, 1.0, y_norm);
+    const double radius = plastic.Solve(y_norm - c, c, 1.0, y_norm);
     z[0] = y[0] * (radius / y_norm);
     z[1] = y[1] * (radius / y_norm);
   }

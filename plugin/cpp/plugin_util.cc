@@ -133,10 +133,10 @@ StepResponse ComputeStepResponse(const mjModel* m, mjData* d, int out,
     w->factor.insert(w->factor.end(), d->qLDiagInv, d->qLDiagInv + nv);
     w->moment.assign(moment, moment + nnz);
     w->colind.assign(colind, colind + nnz);
-    std::vector<mjtNum> row(nv, 0.0);
-    for (int k = 0; k < nnz; ++k) row[colind[k]] = moment[k];
+    w->row.assign(nv, 0.0);
+    for (int k = 0; k < nnz; ++k) w->row[colind[k]] = moment[k];
     w->solution.resize(nv);
-    mj_solveM(m, d, w->solution.data(), row.data(), 1);
+    mj_solveM(m, d, w->solution.data(), w->row.data(), 1);
   }
   const mjtNum* response_row = w->solution.data();
   StepResponse response;

@@ -128,6 +128,7 @@ struct StepResponse {
 struct StepResponseWorkspace {
   const mjModel* model = nullptr;  // of the last solve (the sparsity of qLD is the model's)
   std::vector<mjtNum> force;     // generalized force known so far (nv)
+  std::vector<mjtNum> row;       // J' (nv, dense), the right-hand side of a solve
   std::vector<mjtNum> factor;    // qLD and qLDiagInv at the last solve (nC + nv)
   std::vector<mjtNum> moment;    // the row J (sparse values and columns) at the last solve
   std::vector<int> colind;
