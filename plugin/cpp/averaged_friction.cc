@@ -208,16 +208,6 @@ bool AveragedConfig::FromModel(const mjModel* m, int instance, AveragedConfig* c
   return true;
 }
 
-AveragedFriction::AveragedFriction(AveragedConfig config, std::string fingerprint)
-    : config_(&AveragedConfig::FromModel, std::move(config), std::move(fingerprint)) {}
-
-std::unique_ptr<AveragedFriction> AveragedFriction::Create(const mjModel* m, int instance) {
-  AveragedConfig config;
-  if (!AveragedConfig::FromModel(m, instance, &config)) return nullptr;
-  return std::unique_ptr<AveragedFriction>(
-      new AveragedFriction(config, ConfigFingerprint(m, instance)));
-}
-
 void AveragedFriction::Force(const double u[2], double normal_force, double velocity_amplitude,
                              double force[2]) const {
   const double c = config_->axis_cos, s = config_->axis_sin;
@@ -288,17 +278,7 @@ void AveragedFriction::RegisterPlugin() {
   plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
   plugin.attributes = kAttributes;
   plugin.nstate = NormalLoad::StateSize;
-  SetInstanceLifecycle<AveragedFriction>(&plugin);
-  plugin.reset = +[](const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
-    const int n = NormalLoad::StateSize(m, instance);
-    for (int i = 0; i < n; ++i) plugin_state[i] = 0;
-  };
-  plugin.compute = +[](const mjModel* m, mjData* d, int instance, int capability_bit) {
-    InstanceOf<AveragedFriction>(d, instance)->Compute(m, d, instance);
-  };
-  plugin.advance = +[](const mjModel* m, mjData* d, int instance) {
-    InstanceOf<AveragedFriction>(d, instance)->Advance(m, d, instance);
-  };
+  SetPluginCallbacks<AveragedFriction, &AveragedConfig::FromModel>(&plugin);
   mjp_registerPlugin(&plugin);
 }
 

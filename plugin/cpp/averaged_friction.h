@@ -25,6 +25,7 @@
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <mujoco/mujoco.h>
@@ -62,7 +63,8 @@ class AveragedFriction {
   static constexpr char kName[] = "vibrofriction.averaged";
   static constexpr int kSensorDim = 7;  // F_x, F_y, 0, 0, v_x, v_y, F_N (same layout as planar)
 
-  static std::unique_ptr<AveragedFriction> Create(const mjModel* m, int instance);
+  // From a validated config (SetPluginCallbacks builds one per plugin instance).
+  explicit AveragedFriction(CachedConfig<AveragedConfig> config) : config_(std::move(config)) {}
   static void RegisterPlugin();
 
   void Compute(const mjModel* m, mjData* d, int instance);
@@ -75,8 +77,6 @@ class AveragedFriction {
              double force[2]) const;
 
  private:
-  AveragedFriction(AveragedConfig config, std::string fingerprint);
-
   CachedConfig<AveragedConfig> config_;
   std::vector<mjtNum> scratch_;
 };

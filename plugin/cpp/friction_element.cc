@@ -82,16 +82,6 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
   return true;
 }
 
-FrictionElement::FrictionElement(FrictionConfig config, std::string fingerprint)
-    : config_(&FrictionConfig::FromModel, std::move(config), std::move(fingerprint)) {}
-
-std::unique_ptr<FrictionElement> FrictionElement::Create(const mjModel* m, int instance) {
-  FrictionConfig config;
-  if (!FrictionConfig::FromModel(m, instance, &config)) return nullptr;
-  return std::unique_ptr<FrictionElement>(
-      new FrictionElement(config, ConfigFingerprint(m, instance)));
-}
-
 LawInput FrictionElement::Input(const mjModel* m, const mjData* d, int instance,
                                 double velocity) const {
   LawInput in;
@@ -187,18 +177,7 @@ void FrictionElement::RegisterPlugin() {
   plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
   plugin.attributes = kAttributes;
   plugin.nstate = FrictionElement::StateSize;
-  SetInstanceLifecycle<FrictionElement>(&plugin);
-  plugin.reset = +[](const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
-    // The contact normal force and the lagged friction force start at 0, like z.
-    const int n = FrictionElement::StateSize(m, instance);
-    for (int i = 0; i < n; ++i) plugin_state[i] = 0;
-  };
-  plugin.compute = +[](const mjModel* m, mjData* d, int instance, int capability_bit) {
-    InstanceOf<FrictionElement>(d, instance)->Compute(m, d, instance);
-  };
-  plugin.advance = +[](const mjModel* m, mjData* d, int instance) {
-    InstanceOf<FrictionElement>(d, instance)->Advance(m, d, instance);
-  };
+  SetPluginCallbacks<FrictionElement, &FrictionConfig::FromModel>(&plugin);
   mjp_registerPlugin(&plugin);
 }
 

@@ -12,6 +12,7 @@
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <mujoco/mujoco.h>
@@ -41,7 +42,8 @@ class FrictionElement {
   static constexpr char kName[] = "vibrofriction.friction";
   static constexpr int kSensorDim = 5;  // F_F, z, v_r, F_N (modulated), F_F lagged
 
-  static std::unique_ptr<FrictionElement> Create(const mjModel* m, int instance);
+  // From a validated config (SetPluginCallbacks builds one per plugin instance).
+  explicit FrictionElement(CachedConfig<FrictionConfig> config) : config_(std::move(config)) {}
   static void RegisterPlugin();
 
   void Compute(const mjModel* m, mjData* d, int instance);
@@ -51,7 +53,6 @@ class FrictionElement {
   static int StateSize(const mjModel* m, int instance);
 
  private:
-  explicit FrictionElement(FrictionConfig config, std::string fingerprint);
   LawInput Input(const mjModel* m, const mjData* d, int instance, double velocity) const;
 
   CachedConfig<FrictionConfig> config_;

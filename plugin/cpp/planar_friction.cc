@@ -190,16 +190,6 @@ bool PlanarConfig::FromModel(const mjModel* m, int instance, PlanarConfig* confi
 
 // ---- PlanarFriction ------------------------------------------------------------------------------
 
-PlanarFriction::PlanarFriction(PlanarConfig config, std::string fingerprint)
-    : config_(&PlanarConfig::FromModel, std::move(config), std::move(fingerprint)) {}
-
-std::unique_ptr<PlanarFriction> PlanarFriction::Create(const mjModel* m, int instance) {
-  PlanarConfig config;
-  if (!PlanarConfig::FromModel(m, instance, &config)) return nullptr;
-  return std::unique_ptr<PlanarFriction>(
-      new PlanarFriction(config, ConfigFingerprint(m, instance)));
-}
-
 LawInput PlanarFriction::Input(const mjModel* m, const mjData* d, int instance) const {
   LawInput in;
   in.time = d->time;
@@ -279,17 +269,7 @@ void PlanarFriction::RegisterPlugin() {
   plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
   plugin.attributes = kAttributes;
   plugin.nstate = NormalLoad::StateSize;
-  SetInstanceLifecycle<PlanarFriction>(&plugin);
-  plugin.reset = +[](const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
-    const int n = NormalLoad::StateSize(m, instance);
-    for (int i = 0; i < n; ++i) plugin_state[i] = 0;  // no contact force before the first step
-  };
-  plugin.compute = +[](const mjModel* m, mjData* d, int instance, int capability_bit) {
-    InstanceOf<PlanarFriction>(d, instance)->Compute(m, d, instance);
-  };
-  plugin.advance = +[](const mjModel* m, mjData* d, int instance) {
-    InstanceOf<PlanarFriction>(d, instance)->Advance(m, d, instance);
-  };
+  SetPluginCallbacks<PlanarFriction, &PlanarConfig::FromModel>(&plugin);
   mjp_registerPlugin(&plugin);
 }
 

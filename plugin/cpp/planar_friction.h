@@ -25,6 +25,7 @@
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <mujoco/mujoco.h>
@@ -76,7 +77,8 @@ class PlanarFriction {
   static constexpr char kName[] = "vibrofriction.planar";
   static constexpr int kSensorDim = 7;  // F_x, F_y, z_x, z_y, v_x, v_y, F_N (modulated)
 
-  static std::unique_ptr<PlanarFriction> Create(const mjModel* m, int instance);
+  // From a validated config (SetPluginCallbacks builds one per plugin instance).
+  explicit PlanarFriction(CachedConfig<PlanarConfig> config) : config_(std::move(config)) {}
   static void RegisterPlugin();
 
   void Compute(const mjModel* m, mjData* d, int instance);
@@ -85,7 +87,6 @@ class PlanarFriction {
   void Advance(const mjModel* m, mjData* d, int instance);
 
  private:
-  PlanarFriction(PlanarConfig config, std::string fingerprint);
   LawInput Input(const mjModel* m, const mjData* d, int instance) const;
 
   CachedConfig<PlanarConfig> config_;

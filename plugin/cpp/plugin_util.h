@@ -6,7 +6,9 @@
 #include <cstdint>
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -54,8 +56,13 @@ template <class Config>
 class CachedConfig {
  public:
   using Reader = bool (*)(const mjModel* m, int instance, Config* config);
-  CachedConfig(Reader read, Config config, std::string fingerprint)
-      : read_(read), config_(std::move(config)), fingerprint_(std::move(fingerprint)) {}
+
+  // The config of `instance`, or nullopt when it is invalid (the reader has warned).
+  static std::optional<CachedConfig> Load(Reader read, const mjModel* m, int instance) {
+    Config config;
+    if (!read(m, instance, &config)) return std::nullopt;
+    return CachedConfig(read, std::move(config), ConfigFingerprint(m, instance));
+  }
 
   // False when the config of `m` is invalid (the reader has warned, naming the attribute).
   bool Refresh(const mjModel* m, int instance, bool later_in_step = false) {
@@ -70,6 +77,8 @@ class CachedConfig {
 
  private:
   static constexpr std::size_t kSpotCheckBytes = 256;
+  CachedConfig(Reader read, Config config, std::string fingerprint)
+      : read_(read), config_(std::move(config)), fingerprint_(std::move(fingerprint)) {}
   // Another model (or the same one whose spot check failed): compare in full, re-read if needed.
   bool Reload(const mjModel* m, int instance) {
     model_ = m;
@@ -85,25 +94,48 @@ class CachedConfig {
   bool valid_ = true;
 };
 
-// init/destroy callbacks for a plugin class T with `static std::unique_ptr<T> Create(m, i)`:
-// one T per instance in mjData.plugin_data.
+// CachedConfig<Config> for a reader bool(const mjModel*, int, Config*) (declaration only).
+template <class Config>
+CachedConfig<Config> ConfigOfReader(bool (*)(const mjModel*, int, Config*));
+
+template <class T, class = void>
+struct HasAdvance : std::false_type {};
 template <class T>
-void SetInstanceLifecycle(mjpPlugin* plugin) {
-  plugin->init = +[](const mjModel* m, mjData* d, int instance) {
-    std::unique_ptr<T> object = T::Create(m, instance);
-    if (object == nullptr) return -1;
-    d->plugin_data[instance] = reinterpret_cast<uintptr_t>(object.release());
-    return 0;
-  };
-  plugin->destroy = +[](mjData* d, int instance) {
-    delete reinterpret_cast<T*>(d->plugin_data[instance]);
-    d->plugin_data[instance] = 0;
-  };
-}
+struct HasAdvance<T, std::void_t<decltype(&T::Advance)>> : std::true_type {};
 
 template <class T>
 T* InstanceOf(mjData* d, int instance) {
   return reinterpret_cast<T*>(d->plugin_data[instance]);
+}
+
+// The plugin callbacks of a plugin class T, one T per instance in mjData.plugin_data:
+// init builds T from the instance's config read by `Read` (bool Read(m, instance, Config*);
+// T has a constructor from CachedConfig<Config>) and fails when the config is invalid; destroy
+// deletes it; compute (and advance, when T has one) forward to T; reset zeroes the instance's
+// plugin_state (contact force, lagged force: 0 before the first step, like z).
+template <class T, auto Read>
+void SetPluginCallbacks(mjpPlugin* plugin) {
+  plugin->init = +[](const mjModel* m, mjData* d, int instance) {
+    auto config = decltype(ConfigOfReader(Read))::Load(Read, m, instance);
+    if (!config) return -1;
+    d->plugin_data[instance] = reinterpret_cast<uintptr_t>(new T(std::move(*config)));
+    return 0;
+  };
+  plugin->destroy = +[](mjData* d, int instance) {
+    delete InstanceOf<T>(d, instance);
+    d->plugin_data[instance] = 0;
+  };
+  plugin->reset = +[](const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {
+    mju_zero(plugin_state, m->plugin_statenum[instance]);
+  };
+  plugin->compute = +[](const mjModel* m, mjData* d, int instance, int capability_bit) {
+    InstanceOf<T>(d, instance)->Compute(m, d, instance);
+  };
+  if constexpr (HasAdvance<T>::value) {
+    plugin->advance = +[](const mjModel* m, mjData* d, int instance) {
+      InstanceOf<T>(d, instance)->Advance(m, d, instance);
+    };
+  }
 }
 
 // The single actuator backed by `instance`, or -1 (with a warning) if none or several.

@@ -83,11 +83,7 @@ struct SensorConfig {
 template <class Spec>
 class StateSensor {
  public:
-  static std::unique_ptr<StateSensor> Create(const mjModel* m, int instance) {
-    SensorConfig config;
-    if (!SensorConfig::FromModel<Spec>(m, instance, &config)) return nullptr;
-    return std::unique_ptr<StateSensor>(new StateSensor(config, ConfigFingerprint(m, instance)));
-  }
+  explicit StateSensor(CachedConfig<SensorConfig> config) : config_(std::move(config)) {}
 
   void Compute(const mjModel* m, mjData* d, int instance) {
     for (int s = 0; s < m->nsensor; ++s) {
@@ -113,18 +109,11 @@ class StateSensor {
     plugin.nsensordata = +[](const mjModel* m, int instance, int sensor_id) {
       return Spec::kDim;
     };
-    SetInstanceLifecycle<StateSensor>(&plugin);
-    plugin.reset = +[](const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {};
-    plugin.compute = +[](const mjModel* m, mjData* d, int instance, int capability_bit) {
-      InstanceOf<StateSensor>(d, instance)->Compute(m, d, instance);
-    };
+    SetPluginCallbacks<StateSensor, &SensorConfig::FromModel<Spec>>(&plugin);
     mjp_registerPlugin(&plugin);
   }
 
  private:
-  StateSensor(SensorConfig config, std::string fingerprint)
-      : config_(&SensorConfig::FromModel<Spec>, std::move(config), std::move(fingerprint)) {}
-
   CachedConfig<SensorConfig> config_;
 };
 

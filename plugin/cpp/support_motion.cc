@@ -59,15 +59,6 @@ double MotionConfig::Displacement(double t, double amplitude_scale) const {
   return s;
 }
 
-SupportMotion::SupportMotion(MotionConfig config, std::string fingerprint)
-    : config_(&MotionConfig::FromModel, std::move(config), std::move(fingerprint)) {}
-
-std::unique_ptr<SupportMotion> SupportMotion::Create(const mjModel* m, int instance) {
-  MotionConfig config;
-  if (!MotionConfig::FromModel(m, instance, &config)) return nullptr;
-  return std::unique_ptr<SupportMotion>(new SupportMotion(config, ConfigFingerprint(m, instance)));
-}
-
 void SupportMotion::Compute(const mjModel* m, mjData* d, int instance) {
   const int out = config_->output;
   if (!config_.Refresh(m, instance)) {
@@ -95,11 +86,7 @@ void SupportMotion::RegisterPlugin() {
   plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
   plugin.attributes = kAttributes;
   plugin.nstate = +[](const mjModel* m, int instance) { return 0; };
-  SetInstanceLifecycle<SupportMotion>(&plugin);
-  plugin.reset = +[](const mjModel* m, mjtNum* plugin_state, void* plugin_data, int instance) {};
-  plugin.compute = +[](const mjModel* m, mjData* d, int instance, int capability_bit) {
-    InstanceOf<SupportMotion>(d, instance)->Compute(m, d, instance);
-  };
+  SetPluginCallbacks<SupportMotion, &MotionConfig::FromModel>(&plugin);
   mjp_registerPlugin(&plugin);
 }
 

@@ -14,6 +14,7 @@
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <mujoco/mujoco.h>
@@ -39,13 +40,12 @@ struct MotionConfig {
 class SupportMotion {
  public:
   static constexpr char kName[] = "vibrofriction.motion";
-  static std::unique_ptr<SupportMotion> Create(const mjModel* m, int instance);
+  // From a validated config (SetPluginCallbacks builds one per plugin instance).
+  explicit SupportMotion(CachedConfig<MotionConfig> config) : config_(std::move(config)) {}
   static void RegisterPlugin();
   void Compute(const mjModel* m, mjData* d, int instance);
 
  private:
-  SupportMotion(MotionConfig config, std::string fingerprint);
-
   CachedConfig<MotionConfig> config_;
   StepResponseWorkspace response_workspace_;
 };
