@@ -13,6 +13,7 @@ from mujoco import rollout as mj_rollout
 
 import vibrofriction
 from vibrofriction.params import PAPER_NORMAL_FORCE_N, RigParameters
+from vibrofriction.rig import sensor_columns
 
 # Friction bound of the paper rig: mu = 0.2 (params.py) times F_N = 55.2 N (paper, section 4).
 PAPER_FRICTION_BOUND_N = 0.2 * PAPER_NORMAL_FORCE_N
@@ -29,12 +30,7 @@ class Rollout:
     sensordata: np.ndarray  # (nstep, nsensordata): computed in step i, i.e. at t_i
 
     def sensor(self, name: str) -> np.ndarray:
-        i = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SENSOR, name)
-        if i < 0:
-            raise KeyError(name)
-        adr, dim = self.model.sensor_adr[i], self.model.sensor_dim[i]
-        out = self.sensordata[:, adr:adr + dim]
-        return out[:, 0] if dim == 1 else out
+        return sensor_columns(self.model, self.sensordata, name)
 
     @property
     def states_before(self) -> np.ndarray:

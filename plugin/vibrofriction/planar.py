@@ -27,7 +27,7 @@ from scipy import special
 from ._native import load
 from .laws import _as_c_array, _c_parameters
 from .params import FrictionParameters, ParameterError, RigParameters
-from .rig import MJCF_DIR, MJCF_KEYS, default_times, set_plugin_config
+from .rig import MJCF_DIR, MJCF_KEYS, default_times, sensor_slices, set_plugin_config
 from .summary import averaging_window
 
 PLANAR_RIG_PATH = MJCF_DIR / "robots" / "planar_rig_resolved.xml"
@@ -232,14 +232,6 @@ def _initial_state(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
     return state
 
 
-def _slices(model: mujoco.MjModel) -> dict[str, slice]:
-    out = {}
-    for i in range(model.nsensor):
-        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i)
-        out[name] = slice(model.sensor_adr[i], model.sensor_adr[i] + model.sensor_dim[i])
-    return out
-
-
 def simulate_rigs(cases: Sequence[tuple[RigParameters, FrictionParameters, float, float]], *,
                   duration_s: float | None = None, timestep_s: float = 1e-5,
                   settle_time_s: float | None = None, nthread: int | None = None,
@@ -266,7 +258,7 @@ def simulate_rigs(cases: Sequence[tuple[RigParameters, FrictionParameters, float
         _, sensordata = pool.rollout(models, data, states, nstep=nstep)
     runs = []
     for k, (r, f, a, b) in enumerate(cases):
-        s = _slices(models[k])
+        s = sensor_slices(models[k])
         sd = sensordata[k]
         state = sd[:, s["friction_state"]]
         runs.append(PlanarRigRun(

@@ -192,7 +192,8 @@ class RigRun:
         }
 
 
-def _sensor_slices(model: mujoco.MjModel) -> dict[str, slice]:
+def sensor_slices(model: mujoco.MjModel) -> dict[str, slice]:
+    """Columns of each named sensor in sensordata (and in rollout's nstep x nsensordata)."""
     out = {}
     for i in range(model.nsensor):
         name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i)
@@ -201,11 +202,22 @@ def _sensor_slices(model: mujoco.MjModel) -> dict[str, slice]:
     return out
 
 
+def sensor_columns(model: mujoco.MjModel, sensordata: np.ndarray, name: str) -> np.ndarray:
+    """Rollout sensordata (nstep x nsensordata) of sensor `name`: (nstep,) for a scalar sensor,
+    (nstep, dim) otherwise. KeyError when the model has no such sensor."""
+    i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, name)
+    if i < 0:
+        raise KeyError(name)
+    adr, dim = model.sensor_adr[i], model.sensor_dim[i]
+    out = sensordata[:, adr:adr + dim]
+    return out[:, 0] if dim == 1 else out
+
+
 def runs_from_sensordata(model: mujoco.MjModel, rig: RigParameters,
                          friction: FrictionParameters, sensordata: np.ndarray,
                          settle_time_s: float) -> RigRun:
     """Turn rollout sensordata (nstep x nsensordata) into a RigRun."""
-    s = _sensor_slices(model)
+    s = sensor_slices(model)
     dt = model.opt.timestep
     n = sensordata.shape[0]
     friction_state = sensordata[:, s["friction_state"]]

@@ -27,7 +27,7 @@ from mujoco import rollout as mj_rollout
 from ._native import load
 from .averaged import AveragedTable, Vibration, build_table
 from .params import FrictionParameters, ParameterError
-from .rig import MJCF_DIR
+from .rig import MJCF_DIR, sensor_columns
 
 ROBOTS_DIR = MJCF_DIR / "robots"
 GRAVITY_M_PER_S2 = 9.81
@@ -209,12 +209,7 @@ class SceneRun:
     wall_s: float
 
     def sensor(self, name: str) -> np.ndarray:
-        i = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SENSOR, name)
-        if i < 0:
-            raise KeyError(name)
-        adr, dim = self.model.sensor_adr[i], self.model.sensor_dim[i]
-        out = self.sensordata[:, adr:adr + dim]
-        return out[:, 0] if dim == 1 else out
+        return sensor_columns(self.model, self.sensordata, name)
 
     def state_at(self, t: float) -> np.ndarray:
         k = int(round(t / self.model.opt.timestep)) - 1

@@ -174,7 +174,7 @@ class VariantRun:
 
 def _friction_series(model: mujoco.MjModel, sensordata: np.ndarray, mass_kg: float,
                      builtin: bool) -> tuple[np.ndarray, np.ndarray]:
-    slices = rig_module._sensor_slices(model)
+    slices = rig_module.sensor_slices(model)
     drive = sensordata[:, slices["drive_force"]][:, 0]
     if builtin:
         accel = sensordata[:, slices["slider_acceleration"]][:, 0]
