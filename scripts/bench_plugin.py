@@ -53,13 +53,6 @@ BARE = "bare rig (friction element removed)"
 BUILTIN_STATE = "built-in integrator actuator on the bare rig (one act, zero force)"
 
 
-def _initial_state(model: mujoco.MjModel) -> np.ndarray:
-    data = mujoco.MjData(model)
-    state = np.empty(mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS))
-    mujoco.mj_getState(model, data, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
-    return state
-
-
 def _cpu_seconds(work: Callable[[], object]) -> float:
     """CPU time of this thread: rollout with nthread 0 steps in the calling thread, so other
     processes on a shared machine do not inflate it (wall time would)."""
@@ -101,7 +94,7 @@ def speed(quick: bool) -> dict:
     models["Python callback (mjcb_act_dyn), dahl"] = (
         python_law_spec(rig, dahl, timestep_s=TIMESTEP_S).compile(),
         lambda: act_dyn_callback(dahl_zdot, contact))
-    runs = {name: (model, mujoco.MjData(model), _initial_state(model)[None])
+    runs = {name: (model, mujoco.MjData(model), rig_module.initial_state(model)[None])
             for name, (model, _) in models.items()}
 
     def run(name: str) -> float:
@@ -166,7 +159,7 @@ def _frictionloss_mean(rig: RigParameters, timestep_s: float, duration_s: float,
     model = _frictionloss_model(rig, timestep_s)
     nstep = int(round(duration_s / timestep_s))
     _, sensordata = mj_rollout.rollout(model, mujoco.MjData(model),
-                                       _initial_state(model)[None], nstep=nstep)
+                                       rig_module.initial_state(model)[None], nstep=nstep)
     drive = sensordata[0][:, model.sensor_adr[model.sensor("drive_force").id]]
     t = np.arange(nstep) * timestep_s
     return summarize(t, drive, drive, 1 / rig.vibration_frequency_Hz, settle_s).mean_drive_force_N

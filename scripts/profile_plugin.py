@@ -40,7 +40,6 @@ LIBRARIES = {"libmujoco": "MuJoCo", "libvibrofriction_plugin": "vibrofriction",
 def _child(model: str, nstep: int) -> None:
     """Steps the model nstep times in one rollout call (runs under valgrind)."""
     import mujoco
-    import numpy as np
     from mujoco import rollout
 
     from vibrofriction import rig as rig_module
@@ -64,9 +63,7 @@ def _child(model: str, nstep: int) -> None:
         spec.delete(spec.sensor("friction_state"))  # the element alone, as bench_plugin.py
         compiled = spec.compile()
     data = mujoco.MjData(compiled)
-    state = np.empty(mujoco.mj_stateSize(compiled, mujoco.mjtState.mjSTATE_FULLPHYSICS))
-    mujoco.mj_getState(compiled, data, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
-    rollout.rollout(compiled, data, state[None], nstep=nstep)
+    rollout.rollout(compiled, data, rig_module.initial_state(compiled, data)[None], nstep=nstep)
 
 
 def _instructions_by_library(model: str, nstep: int, workdir: Path) -> collections.Counter:

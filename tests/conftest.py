@@ -13,7 +13,7 @@ from mujoco import rollout as mj_rollout
 
 import vibrofriction
 from vibrofriction.params import PAPER_NORMAL_FORCE_N, RigParameters
-from vibrofriction.rig import sensor_columns
+from vibrofriction.rig import initial_state, sensor_columns
 
 # Friction bound of the paper rig: mu = 0.2 (params.py) times F_N = 55.2 N (paper, section 4).
 PAPER_FRICTION_BOUND_N = 0.2 * PAPER_NORMAL_FORCE_N
@@ -40,14 +40,6 @@ class Rollout:
     @property
     def time_s(self) -> np.ndarray:
         return np.arange(self.sensordata.shape[0]) * self.model.opt.timestep
-
-
-def initial_state(model: mujoco.MjModel, data: mujoco.MjData | None = None) -> np.ndarray:
-    data = data if data is not None else mujoco.MjData(model)
-    mujoco.mj_resetData(model, data)
-    state = np.empty(mujoco.mj_stateSize(model, FULL))
-    mujoco.mj_getState(model, data, state, FULL)
-    return state
 
 
 def run_rollout(model: mujoco.MjModel, nstep: int, state0: np.ndarray | None = None) -> Rollout:

@@ -27,7 +27,8 @@ from scipy import special
 from ._native import load
 from .laws import _as_c_array, _c_parameters
 from .params import FrictionParameters, ParameterError, RigParameters
-from .rig import MJCF_DIR, MJCF_KEYS, default_times, sensor_slices, set_plugin_config
+from .rig import (MJCF_DIR, MJCF_KEYS, default_times, initial_state, sensor_slices,
+                  set_plugin_config)
 from .summary import averaging_window
 
 PLANAR_RIG_PATH = MJCF_DIR / "robots" / "planar_rig_resolved.xml"
@@ -224,14 +225,6 @@ def build_rig_spec(rig: RigParameters, friction: FrictionParameters, *,
     return spec
 
 
-def _initial_state(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
-    mujoco.mj_resetData(model, data)
-    kind = mujoco.mjtState.mjSTATE_FULLPHYSICS
-    state = np.empty(mujoco.mj_stateSize(model, kind))
-    mujoco.mj_getState(model, data, state, kind)
-    return state
-
-
 def simulate_rigs(cases: Sequence[tuple[RigParameters, FrictionParameters, float, float]], *,
                   duration_s: float | None = None, timestep_s: float = 1e-5,
                   settle_time_s: float | None = None, nthread: int | None = None,
@@ -253,7 +246,7 @@ def simulate_rigs(cases: Sequence[tuple[RigParameters, FrictionParameters, float
         import os
         nthread = min(len(cases), len(os.sched_getaffinity(0)))
     data = [mujoco.MjData(models[0]) for _ in range(max(1, nthread))]
-    states = np.stack([_initial_state(m, data[0]) for m in models])
+    states = np.stack([initial_state(m, data[0]) for m in models])
     with mj_rollout.Rollout(nthread=nthread if len(cases) > 1 else 0) as pool:
         _, sensordata = pool.rollout(models, data, states, nstep=nstep)
     runs = []

@@ -238,11 +238,14 @@ def runs_from_sensordata(model: mujoco.MjModel, rig: RigParameters,
     )
 
 
-def _initial_state(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+def initial_state(model: mujoco.MjModel, data: mujoco.MjData | None = None) -> np.ndarray:
+    """The model's reset state (mjSTATE_FULLPHYSICS), e.g. for mujoco.rollout; `data` is
+    reset and reused when given."""
+    data = data if data is not None else mujoco.MjData(model)
     mujoco.mj_resetData(model, data)
-    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
-    state = np.empty(mujoco.mj_stateSize(model, spec))
-    mujoco.mj_getState(model, data, state, spec)
+    kind = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state = np.empty(mujoco.mj_stateSize(model, kind))
+    mujoco.mj_getState(model, data, state, kind)
     return state
 
 
@@ -281,7 +284,7 @@ def simulate_many(cases: Sequence[tuple[RigParameters, FrictionParameters]], *,
             chunk_models = models[start:start + group]
             # Rollout wants exactly one MjData per thread, also for a short last chunk.
             datas = [mujoco.MjData(chunk_models[0]) for _ in range(max(1, pool_threads))]
-            states = np.stack([_initial_state(mm, datas[0]) for mm in chunk_models])
+            states = np.stack([initial_state(mm, datas[0]) for mm in chunk_models])
             _, sensordata = pool.rollout(chunk_models, datas, states, nstep=nstep)
             for k, mm in enumerate(chunk_models):
                 r, f = cases[start + k]

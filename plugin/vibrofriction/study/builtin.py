@@ -206,7 +206,7 @@ def run_variants(requests: Sequence[tuple[str, RigParameters, float]], config: S
             models = [build_variant_spec(v, requests[i][1], config, dt).compile() for i in part]
             nstep = int(round(duration / dt))
             data = mujoco.MjData(models[0])
-            states = np.stack([rig_module._initial_state(m, data) for m in models])
+            states = np.stack([rig_module.initial_state(m, data) for m in models])
             threads = min(nthread, len(models)) if parallel and len(models) > 1 else 0
             with mj_rollout.Rollout(nthread=threads) as pool:
                 datas = [mujoco.MjData(models[0]) for _ in range(max(1, threads))]
