@@ -54,6 +54,22 @@ def _as_c_array(values, n: int, name: str) -> np.ndarray:
     return array
 
 
+def _time_argument(time_s) -> np.ndarray:
+    """The sample times as a C array, checked strictly increasing."""
+    t = np.ascontiguousarray(time_s, dtype=np.float64)
+    t = _as_c_array(t, t.shape[0], "time_s")
+    if t.shape[0] > 1 and not np.all(np.diff(t) > 0):
+        raise ParameterError("time_s must be strictly increasing")
+    return t
+
+
+def _normal_argument(normal_force_N, n: int) -> tuple[float, np.ndarray | None]:
+    """(constant normal force, None) for a scalar, (0, C array of n samples) for an array."""
+    if np.ndim(normal_force_N) == 0:
+        return float(normal_force_N), None
+    return 0.0, _as_c_array(normal_force_N, n, "normal_force_N")
+
+
 def run_law(friction: FrictionParameters, time_s, relative_velocity_m_per_s, *,
             normal_force_N=55.2, position_m=None, initial_deflection_m: float = 0.0) -> LawRun:
     """Friction force and deflection along a prescribed history (kinematic driving).
@@ -64,18 +80,10 @@ def run_law(friction: FrictionParameters, time_s, relative_velocity_m_per_s, *,
     """
     friction.validate()
     lib = load()
-    t = np.ascontiguousarray(time_s, dtype=np.float64)
+    t = _time_argument(time_s)
     n = t.shape[0]
-    t = _as_c_array(t, n, "time_s")
-    if n > 1 and not np.all(np.diff(t) > 0):
-        raise ParameterError("time_s must be strictly increasing")
     v = _as_c_array(relative_velocity_m_per_s, n, "relative_velocity_m_per_s")
-    normal_array = None
-    constant_normal = 0.0
-    if np.ndim(normal_force_N) == 0:
-        constant_normal = float(normal_force_N)
-    else:
-        normal_array = _as_c_array(normal_force_N, n, "normal_force_N")
+    constant_normal, normal_array = _normal_argument(normal_force_N, n)
     position = None if position_m is None else _as_c_array(position_m, n, "position_m")
     force = np.empty(n)
     deflection = np.empty(n)

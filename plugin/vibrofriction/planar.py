@@ -25,7 +25,7 @@ from mujoco import rollout as mj_rollout
 from scipy import special
 
 from ._native import load
-from .laws import _as_c_array, _c_parameters
+from .laws import _as_c_array, _c_parameters, _normal_argument, _time_argument
 from .params import FrictionParameters, ParameterError, RigParameters
 from .rig import (MJCF_DIR, MJCF_KEYS, default_times, initial_state, sensor_slices,
                   set_plugin_config)
@@ -89,22 +89,14 @@ def run_planar_law(friction: FrictionParameters, time_s, relative_velocity_m_per
     fn.argtypes = [ctypes.c_void_p, ctypes.c_int, dp, dp, dp, dp, ctypes.c_double,
                    ctypes.c_double, dp, dp, dp, dp]
     fn.restype = ctypes.c_int
-    t = np.ascontiguousarray(time_s, dtype=np.float64)
+    t = _time_argument(time_s)
     n = t.shape[0]
-    t = _as_c_array(t, n, "time_s")
-    if n > 1 and not np.all(np.diff(t) > 0):
-        raise ParameterError("time_s must be strictly increasing")
     v = np.asarray(relative_velocity_m_per_s, dtype=np.float64)
     if v.shape != (n, 2):
         raise ParameterError(f"relative_velocity_m_per_s has shape {v.shape}, expected ({n}, 2)")
     vx = _as_c_array(v[:, 0], n, "relative_velocity_m_per_s[:, 0]")
     vy = _as_c_array(v[:, 1], n, "relative_velocity_m_per_s[:, 1]")
-    normal = None
-    constant_normal = 0.0
-    if np.ndim(normal_force_N) == 0:
-        constant_normal = float(normal_force_N)
-    else:
-        normal = _as_c_array(normal_force_N, n, "normal_force_N")
+    constant_normal, normal = _normal_argument(normal_force_N, n)
     out = [np.empty(n) for _ in range(4)]
     params = _c_parameters(friction, constant_normal)
 
