@@ -5,6 +5,7 @@ offscreen rendering works where a GL context can be made."""
 from __future__ import annotations
 
 import math
+import re
 
 import mujoco
 import numpy as np
@@ -86,7 +87,21 @@ def test_the_table_file_is_made_from_the_resolved_scene():
     """plate_push_table.xml is what scripts/robot_tables.py makes now, and the law/vibration it
     was made from are those of plate_push_resolved.xml."""
     text = robots.table_files()["plate_push_table.xml"]
-    assert (robots.ROBOTS_DIR / "plate_push_table.xml").read_text() == text
+    committed = (robots.ROBOTS_DIR / "plate_push_table.xml").read_text()
+    fresh_config, committed_config = _table_config(text), _table_config(committed)
+    assert fresh_config.keys() == committed_config.keys()
+    for key, fresh in fresh_config.items():
+        try:
+            a = np.array(fresh.split(), dtype=float)
+        except ValueError:  # a name or a flag
+            assert committed_config[key] == fresh, key
+            continue
+        # The table entries are period means of a simulated law; a new machine or library
+        # version changes their last digits, a change of the scene or the law the third.
+        b = np.array(committed_config[key].split(), dtype=float)
+        assert a.shape == b.shape, key
+        np.testing.assert_allclose(b, a, rtol=0, atol=1e-7 * max(1.0, float(np.max(np.abs(a)))),
+                                   err_msg=key)
     spec = mujoco.MjSpec.from_file(str(robots.scene_path("plate_push_resolved")))
     configs = {p.name: dict(p.config) for p in spec.plugins}
     friction = configs["part_friction"]
@@ -96,6 +111,11 @@ def test_the_table_file_is_made_from_the_resolved_scene():
     shaker = configs["plate_shaker"]
     assert Vibration(float(shaker["frequency"]), float(shaker["velocity_amplitude"])) == \
         robots.PLATE_VIBRATION
+
+
+def _table_config(text: str) -> dict[str, str]:
+    """Config of the averaged instance in a generated table file."""
+    return dict(re.findall(r'<config key="([^"]+)" value="([^"]*)"/>', text))
 
 
 def test_scara_ik_reaches_its_targets():
