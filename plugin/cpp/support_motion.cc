@@ -15,7 +15,9 @@ constexpr char kVelocityAmplitude[] = "velocity_amplitude";
 constexpr char kVelocity[] = "velocity";
 constexpr char kPhase[] = "phase";
 constexpr char kUseCtrl[] = "use_ctrl";
-const char* const kAttributes[] = {kFrequency, kVelocityAmplitude, kVelocity, kPhase, kUseCtrl};
+constexpr char kDisplacementFromCtrl[] = "displacement_from_ctrl";
+const char* const kAttributes[] = {kFrequency, kVelocityAmplitude, kVelocity, kPhase, kUseCtrl,
+                                   kDisplacementFromCtrl};
 constexpr char kPlugin[] = "vibrofriction.motion";
 constexpr double kPi = 3.14159265358979323846;
 
@@ -43,6 +45,17 @@ bool MotionConfig::FromModel(const mjModel* m, int instance, MotionConfig* confi
     return false;
   }
   if (!ReadBool(m, instance, kPlugin, kUseCtrl, false, &c.use_ctrl)) return false;
+  if (!ReadBool(m, instance, kPlugin, kDisplacementFromCtrl, false,
+                &c.displacement_from_ctrl)) {
+    return false;
+  }
+  if (c.displacement_from_ctrl &&
+      (c.frequency != 0 || c.velocity_amplitude != 0 || c.velocity != 0 || c.phase != 0 ||
+       c.use_ctrl)) {
+    mju_warning("%s: displacement_from_ctrl=\"true\" takes the whole motion from ctrl; remove "
+                "frequency, velocity_amplitude, velocity, phase and use_ctrl", kPlugin);
+    return false;
+  }
   c.actuator = FindActuator(m, instance, kPlugin);
   if (c.actuator < 0) return false;
   c.output = m->actuator_outadr[c.actuator];
@@ -66,10 +79,15 @@ void SupportMotion::Compute(const mjModel* m, mjData* d, int instance) {
     return;
   }
   const double dt = m->opt.timestep;
-  const double scale = config_->use_ctrl ? d->ctrl[config_->actuator] : 1.0;
   // Position target at the end of the step; the semi-implicit position update
   // s_{n+1} = s_n + dt v_{n+1} then lands on it (no drift in position or phase).
-  const double target = m->actuator_length0[out] + config_->Displacement(d->time + dt, scale);
+  double target;
+  if (config_->displacement_from_ctrl) {  // a recorded motion replayed step by step
+    target = m->actuator_length0[out] + d->ctrl[config_->actuator];
+  } else {
+    const double scale = config_->use_ctrl ? d->ctrl[config_->actuator] : 1.0;
+    target = m->actuator_length0[out] + config_->Displacement(d->time + dt, scale);
+  }
   const double velocity_target = (target - d->actuator_length[out]) / dt;
   const StepResponse response = ComputeStepResponse(m, d, out, &response_workspace_);
   d->actuator_force[out] = response.inverse_mass > 0

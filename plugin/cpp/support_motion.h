@@ -8,7 +8,9 @@
 // after it (e.g. the friction element) act as a disturbance that it corrects one step later,
 // so give the driven body a large apparent mass (armature) to keep that error negligible; the
 // achieved motion is reported by ordinary joint sensors and checked by the tests.
-// ctrl, when the actuator has one, scales the vibration amplitude (1 = as configured).
+// use_ctrl="true": ctrl scales the vibration amplitude (1 = as configured).
+// displacement_from_ctrl="true": ctrl is the displacement from the reference length to reach
+// at the end of the step (a measured motion replayed; identification drives the rig with it).
 #ifndef VIBROFRICTION_SUPPORT_MOTION_H_
 #define VIBROFRICTION_SUPPORT_MOTION_H_
 
@@ -29,6 +31,7 @@ struct MotionConfig {
   double velocity = 0.0;            // constant drift velocity (m/s or rad/s)
   double phase = 0.0;               // (rad)
   bool use_ctrl = false;            // scale the amplitude by ctrl
+  bool displacement_from_ctrl = false;  // ctrl = displacement at the end of the step (m or rad)
   int actuator = -1;
   int output = -1;
 

@@ -208,6 +208,7 @@ def _run_from_rollout(model: mujoco.MjModel, rig: RigParameters, friction: Frict
         friction_force_N=-sensors[FORCE_SENSOR],
         drive_force_N=sensors["drive_force"],
         normal_force_N=np.full(n, rig.normal_force_N),
+        dynamometer_force_N=-rig.drive_stiffness_N_per_m * sensors["drive_spring_extension"],
     )
 
 

@@ -164,8 +164,9 @@ class RigRun:
     relative_velocity_m_per_s: np.ndarray
     deflection_m: np.ndarray
     friction_force_N: np.ndarray
-    drive_force_N: np.ndarray
+    drive_force_N: np.ndarray  # the drive actuator's force on the slider (spring + damper)
     normal_force_N: np.ndarray
+    dynamometer_force_N: np.ndarray  # the spring's force alone: what a dynamometer in it reads
 
     @property
     def period_s(self) -> float:
@@ -184,7 +185,7 @@ class RigRun:
             "position_m": self.slider_position_m,
             "velocity_m_per_s": self.slider_velocity_m_per_s,
             "acceleration_m_per_s2": self.slider_acceleration_m_per_s2,
-            "drive_force_N": self.drive_force_N,
+            "drive_force_N": self.dynamometer_force_N,
             "friction_force_N": self.friction_force_N,
             "support_velocity_m_per_s": self.support_velocity_m_per_s,
             "support_position_m": self.support_position_m,
@@ -235,6 +236,8 @@ def runs_from_sensordata(model: mujoco.MjModel, rig: RigParameters,
         friction_force_N=friction_state[:, 4],
         drive_force_N=sensordata[:, s["drive_force"]][:, 0],
         normal_force_N=friction_state[:, 3],
+        dynamometer_force_N=-rig.drive_stiffness_N_per_m *
+        sensordata[:, s["drive_spring_extension"]][:, 0],
     )
 
 

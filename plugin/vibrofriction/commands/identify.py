@@ -57,6 +57,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         metavar="NAME=VALUE",
                         help="supply or override a sidecar value of DATA (and of every "
                              f"--validate record): {', '.join(_METADATA_KEYS)}")
+    parser.add_argument("--method", choices=("auto", "simulation", "inverse"), default="auto",
+                        help="simulation: fit the MuJoCo rig scene with the plugin, driven by "
+                             "the record's inputs, to every measured channel (output error; "
+                             "needs a rig record: drive_stiffness_N_per_m and "
+                             "drive_velocity_m_per_s in the sidecar). inverse: the law driven "
+                             "by the measured, differentiated motion (fast; for records with "
+                             "no simulator model). auto (default): simulation where the "
+                             "record is a rig record, else inverse; the report says which ran "
+                             "and why")
     parser.add_argument("--timestep", type=float, default=1e-6, metavar="S",
                         help="timestep of the MuJoCo rig replay of the final model (records "
                              "of a spring-driven rig only; default 1e-6)")
@@ -86,9 +95,14 @@ def run(args: argparse.Namespace) -> int:
     def progress(message: str) -> None:
         print(f"[{time.monotonic() - started:6.1f} s] {message}", file=sys.stderr, flush=True)
 
+    method, reason = _method(args.method, train)
+    progress(f"method: {method} ({reason})")
+    if method == "simulation":
+        return _run_simulation(args, train, held, out, declared, reason, progress)
     result = identify(train, held, law=args.law, declared=declared, substeps=args.substeps,
                       lowpass_Hz=args.lowpass, min_improvement=args.min_improvement,
                       progress=progress)
+    result.settings.update(method="inverse", method_reason=reason)
     replay = None
     if train.metadata.drive_stiffness_N_per_m:
         progress("replaying baseline and final model in the MuJoCo rig")
@@ -102,6 +116,55 @@ def run(args: argparse.Namespace) -> int:
     print(f"{train.name}: baseline relerr {b.relerr_pct:.3g} % -> final {f.relerr_pct:.3g} % "
           f"(selected: {', '.join(result.selected) or 'nothing'}); report in {out}")
     return 0
+
+
+def _method(requested: str, train: Dataset) -> tuple[str, str]:
+    """Which identification path runs, and why."""
+    meta = train.metadata
+    rig_record = bool(meta.drive_stiffness_N_per_m and meta.drive_velocity_m_per_s)
+    if requested == "inverse":
+        return "inverse", "asked for with --method inverse"
+    if requested == "simulation":
+        return "simulation", "asked for with --method simulation"
+    if rig_record:
+        return "simulation", ("a rig record (drive spring and drive velocity in the sidecar): "
+                              "the MuJoCo rig scene is fitted to what the record measured")
+    return "inverse", ("no simulator model for this record (no drive_stiffness_N_per_m and "
+                       "drive_velocity_m_per_s in the sidecar): the law is fitted along the "
+                       "measured motion")
+
+
+def _run_simulation(args, train, held, out, declared, reason, progress) -> int:
+    from ..identify.simulation import identify_by_simulation
+    from ..identify import simulation_report
+
+    if args.lowpass is not None:
+        raise UsageError("--lowpass applies to --method inverse only: the simulation path "
+                         "weights each channel by its estimated noise instead")
+    result = identify_by_simulation(train, held, law=args.law, declared=declared,
+                                    substeps=args.substeps,
+                                    min_improvement=args.min_improvement, progress=progress)
+    result.settings["method_reason"] = reason
+    if not args.no_figures:
+        progress("writing report and figures")
+    payload = simulation_report.report_json(result)
+    if args.json_path is not None:
+        _check_json_target(args.json_path)
+    simulation_report.write_report(result, out, figures=not args.no_figures)
+    if args.json_path is not None:
+        write_json(args.json_path, payload)
+    b, f = result.baseline.train, result.final.train
+    print(f"{train.name}: {result.primary} relerr baseline {b.relerr_pct:.3g} % -> final "
+          f"{f.relerr_pct:.3g} % (selected: {', '.join(result.selected) or 'nothing'}); "
+          f"report in {out}")
+    return 0
+
+
+def _check_json_target(path: Path) -> None:
+    if path.is_dir():
+        raise UsageError(f"--json {path} is a folder; name a file")
+    if not path.resolve().parent.is_dir():
+        raise UsageError(f"--json {path}: folder {path.resolve().parent} does not exist")
 
 
 def _metadata_overrides(pairs) -> dict[str, float]:

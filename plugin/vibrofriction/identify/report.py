@@ -8,7 +8,7 @@ import os
 import shutil
 import tempfile
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -53,6 +53,8 @@ def report_json(result: Identification) -> dict[str, Any]:
                            "criterion": _finite(c.delta_bic)})
     return {
         "law": result.law,
+        "method": result.settings.get("method", "inverse"),
+        "method_reason": result.settings.get("method_reason"),
         "baseline": block(result.baseline),
         "candidates": candidates,
         "selected_effects": list(result.selected),
@@ -284,17 +286,26 @@ def write_report(result: Identification, out_dir: str | os.PathLike, *,
 
     A failure while writing leaves ``out_dir`` as it was (no half-written report).
     """
+    def write(tmp: Path) -> None:
+        (tmp / "report.json").write_text(json.dumps(report_json(result), indent=2) + "\n")
+        (tmp / "report.md").write_text(report_markdown(result, rig_replay_result))
+        if figures:
+            from .figures import write_figures
+            write_figures(result, tmp)
+
+    return write_folder(out_dir, write)
+
+
+def write_folder(out_dir: str | os.PathLike, write: Callable[[Path], None]) -> Path:
+    """Run ``write(tmp)`` on a temporary folder next to ``out_dir``, then move its files in
+    place: a failure leaves ``out_dir`` as it was."""
     out_dir = Path(out_dir)
     parent = out_dir.resolve().parent
     parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", suffix=".tmp", dir=parent))
     try:
         os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700; give a normal folder's mode
-        (tmp / "report.json").write_text(json.dumps(report_json(result), indent=2) + "\n")
-        (tmp / "report.md").write_text(report_markdown(result, rig_replay_result))
-        if figures:
-            from .figures import write_figures
-            write_figures(result, tmp)
+        write(tmp)
         if not out_dir.exists():
             os.rename(tmp, out_dir)
         else:
@@ -313,5 +324,5 @@ def _umask() -> int:
     return mask
 
 
-__all__ = ["report_json", "report_markdown", "write_report", "parameters", "rig_replay",
+__all__ = ["report_json", "report_markdown", "write_report", "write_folder", "parameters", "rig_replay",
            "REPORT_FILES"]

@@ -1,0 +1,299 @@
+"""The rig replayed in MuJoCo along a measured record: the model that identification fits.
+
+The model is the rig scene (``mjcf_models/rig``) with the friction element, run by MuJoCo with
+the plugin. The record's measured inputs drive it, step by step, through the two
+``vibrofriction.motion`` actuators in ``displacement_from_ctrl`` mode:
+
+* the table follows the measured support motion: ``support_position_m``, else
+  ``support_velocity_m_per_s`` integrated (trapezoid); a cubic spline between samples;
+* the drive spring's far end moves at the sidecar's ``drive_velocity_m_per_s`` from where the
+  measured drive force at the first sample puts it (x_B = x + F_d / k_d).
+
+The prediction is what the record measured, each channel from a sensor of the scene, never from
+a differentiated measurement: ``position_m`` (slider position), ``velocity_m_per_s``,
+``acceleration_m_per_s2``, ``drive_force_N`` (the dynamometer in the spring: -k_d (x - x_B)),
+``friction_force_N`` (the element's reported force, after its sensor lag).
+
+Initial state: slider position measured; velocity measured or, where not, a smoothing estimate
+(``datasets.smoothed_derivative``: an estimate of the state, not a prediction); contact
+deflection at equilibrium with the force at the first sample (z = F / k_t, inside the elastic
+range).
+
+Each sample interval is cut into ``substeps`` MuJoCo steps (default: the fewest that give at
+least ``MIN_STEPS_PER_PERIOD`` steps a vibration period). Many parameter sets run at once on
+``mujoco.rollout`` threads, one model each (a finite-difference Jacobian is one call).
+"""
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, replace
+from typing import Mapping, Sequence
+
+import mujoco
+import numpy as np
+from mujoco import rollout as mj_rollout
+from scipy.interpolate import make_interp_spline
+
+from .. import rig as rig_module
+from ..datasets import Dataset, cumulative_trapezoid, smoothed_derivative
+from ..errors import InputError
+from ..params import FrictionParameters, RigParameters
+
+# Columns the replay predicts (in this order when present) and the scene sensor of each.
+OUTPUT_CHANNELS = ("position_m", "velocity_m_per_s", "acceleration_m_per_s2", "drive_force_N",
+                   "friction_force_N")
+MIN_STEPS_PER_PERIOD = 40  # at 4 kHz: 6.25 us; the study's timestep rule uses ~50
+MAX_SUBSTEPS = 16
+# Unit normal load when the record gives none: the fitted coefficient is then the level in N.
+UNIT_NORMAL_FORCE_N = 1.0
+_ELASTIC_FRACTION = 0.9  # initial deflection at most this fraction of the sliding deflection
+
+
+@dataclass(frozen=True, eq=False)
+class RigReplay:
+    """A record set up for replay in the rig: inputs as controls, outputs as channels."""
+
+    name: str
+    time_s: np.ndarray
+    substeps: int
+    timestep_s: float
+    control: np.ndarray  # (nstep, nu): table and drive-end displacement at each step's end
+    measured: dict[str, np.ndarray]  # output channel -> measured samples
+    noise: dict[str, float]  # output channel -> estimated white-noise sd
+    rig: RigParameters  # sidecar values (mass: a placeholder when it is identified)
+    mass_known: bool
+    normal_force_known: bool
+    initial_position_m: float
+    initial_velocity_m_per_s: float
+    initial_support_position_m: float
+    initial_support_velocity_m_per_s: float
+    initial_drive_end_m: float
+    initial_friction_N: float
+    vibrating: bool
+
+    @property
+    def n(self) -> int:
+        return len(self.time_s)
+
+    @property
+    def nstep(self) -> int:
+        return (self.n - 1) * self.substeps + 1
+
+    @property
+    def channels(self) -> tuple[str, ...]:
+        return tuple(self.measured)
+
+    def model(self, rig: RigParameters, friction: FrictionParameters) -> mujoco.MjModel:
+        """The rig scene with these values, its motions driven by ctrl."""
+        spec = rig_module.build_spec(rig, friction, self.timestep_s)
+        for name in ("table_shaker", "drive_end_motion"):
+            rig_module.set_plugin_config(spec, name, {"displacement_from_ctrl": "true"})
+        return spec.compile()
+
+    def initial_state(self, model: mujoco.MjModel, friction: FrictionParameters,
+                      data: mujoco.MjData) -> np.ndarray:
+        mujoco.mj_resetData(model, data)
+        joint = {name: model.joint(name) for name in
+                 ("table_slide", "slider_on_table", "drive_end_slide")}
+        u0, x0 = self.initial_support_position_m, self.initial_position_m
+        data.qpos[joint["table_slide"].qposadr[0]] = u0
+        data.qpos[joint["slider_on_table"].qposadr[0]] = x0 - u0
+        data.qpos[joint["drive_end_slide"].qposadr[0]] = self.initial_drive_end_m
+        data.qvel[joint["table_slide"].dofadr[0]] = self.initial_support_velocity_m_per_s
+        data.qvel[joint["slider_on_table"].dofadr[0]] = (self.initial_velocity_m_per_s -
+                                                         self.initial_support_velocity_m_per_s)
+        data.qvel[joint["drive_end_slide"].dofadr[0]] = self.rig.drive_velocity_m_per_s
+        if friction.law != "coulomb" and model.na:
+            k_t = friction.contact_stiffness_N_per_m
+            bound = _ELASTIC_FRACTION * friction.friction_coefficient * self.rig.normal_force_N
+            force = min(max(self.initial_friction_N, -bound), bound)
+            data.act[model.actuator("friction").actadr] = force / k_t
+        kind = mujoco.mjtState.mjSTATE_FULLPHYSICS
+        state = np.empty(mujoco.mj_stateSize(model, kind))
+        mujoco.mj_getState(model, data, state, kind)
+        return state
+
+
+class Replayer:
+    """Runs parameter sets through a replay on a pool of rollout threads."""
+
+    def __init__(self, replay: RigReplay, threads: int | None = None):
+        self.replay = replay
+        self.threads = max(1, threads or _cpu_count())
+        self._pool = mj_rollout.Rollout(nthread=self.threads)
+        self.simulations = 0
+
+    def close(self) -> None:
+        self._pool.close()
+
+    def __enter__(self) -> "Replayer":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def run(self, cases: Sequence[tuple[RigParameters, FrictionParameters]],
+            extra: Sequence[str] = ()) -> list[dict[str, np.ndarray]]:
+        """Predicted channels at the record's samples, one dict per case (``extra`` adds
+        unmeasured channels, e.g. friction_force_N and relative_position_m of a drive record)."""
+        replay = self.replay
+        models = [replay.model(r, f) for r, f in cases]
+        rows = slice(0, replay.nstep, replay.substeps)
+        names = list(replay.channels) + [c for c in extra if c not in replay.channels]
+        out: list[dict[str, np.ndarray] | None] = [None] * len(models)
+        # One rollout per state size (a sensor lag adds a plugin state).
+        groups: dict[int, list[int]] = {}
+        for i, m in enumerate(models):
+            groups.setdefault(m.nplugin and int(np.sum(m.plugin_statenum)), []).append(i)
+        for members in groups.values():
+            group = [models[i] for i in members]
+            datas = [mujoco.MjData(group[0]) for _ in range(self.threads)]
+            states = np.stack([replay.initial_state(models[i], cases[i][1], datas[0])
+                               for i in members])
+            control = np.broadcast_to(replay.control, (len(group), *replay.control.shape))
+            _, sensordata = self._pool.rollout(group, datas, states,
+                                               np.ascontiguousarray(control),
+                                               nstep=replay.nstep)
+            for k, i in enumerate(members):
+                out[i] = _channels(models[i], cases[i][0], sensordata[k, rows], names)
+        self.simulations += len(models)
+        return out
+
+
+def _channels(model: mujoco.MjModel, rig: RigParameters, sensordata: np.ndarray,
+              names: Sequence[str]) -> dict[str, np.ndarray]:
+    def sensor(name: str) -> np.ndarray:
+        return rig_module.sensor_columns(model, sensordata, name)
+
+    out = {}
+    for name in names:
+        if name == "position_m":
+            out[name] = sensor("slider_position")
+        elif name == "velocity_m_per_s":
+            out[name] = sensor("slider_velocity")
+        elif name == "acceleration_m_per_s2":
+            out[name] = sensor("slider_acceleration")[:, 0]
+        elif name == "drive_force_N":
+            out[name] = -rig.drive_stiffness_N_per_m * sensor("drive_spring_extension")
+        elif name == "friction_force_N":
+            out[name] = sensor("friction_state")[:, 4]
+        elif name == "relative_position_m":
+            out[name] = sensor("slider_position") - sensor("table_position")
+        elif name == "relative_velocity_m_per_s":
+            out[name] = sensor("relative_velocity")
+        else:  # pragma: no cover - a programming error
+            raise KeyError(name)
+    return out
+
+
+def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigReplay:
+    """Set a record up for replay in the rig; InputError naming what is missing otherwise."""
+    where = str(dataset.source_path or dataset.name)
+    meta = dataset.metadata
+    columns = dataset.columns
+    t = np.asarray(dataset.time_s, dtype=float)
+    if len(t) < 16:
+        raise InputError(f"{where}: {len(t)} samples; identification needs at least 16")
+    dt = np.diff(t)
+    sample_dt = float(np.median(dt))
+    if np.ptp(dt) > 1e-3 * sample_dt:
+        raise InputError(f"{where}: the rig replay needs uniformly sampled data (time steps "
+                         f"from {dt.min():.6g} to {dt.max():.6g} s); resample the record")
+    measured = {c: np.asarray(columns[c], dtype=float) for c in OUTPUT_CHANNELS if c in columns}
+    if not {"drive_force_N", "friction_force_N", "position_m"} & set(measured):
+        raise InputError(f"{where}: no output the rig can predict; the record needs "
+                         "drive_force_N, friction_force_N or position_m")
+    if "drive_force_N" in measured or "position_m" in measured:
+        missing = [k for k in ("drive_stiffness_N_per_m", "drive_velocity_m_per_s")
+                   if getattr(meta, k) is None]
+        if missing:
+            raise InputError(f"{where}: the rig replay needs {' and '.join(missing)} in the "
+                             "sidecar (or --set NAME=VALUE): the drive spring and the speed "
+                             "of its far end")
+    k_d = meta.drive_stiffness_N_per_m or 1.0e6
+    v_d = meta.drive_velocity_m_per_s or 0.0
+    if k_d <= 0 or v_d == 0:
+        raise InputError(f"{where}: the rig replay needs drive_stiffness_N_per_m > 0 and a "
+                         f"non-zero drive_velocity_m_per_s (got {k_d!r}, {v_d!r})")
+    frequency = meta.vibration_frequency_Hz
+    support_velocity = np.asarray(dataset.support_velocity_m_per_s, dtype=float)
+    vibrating = bool(frequency) and np.ptp(support_velocity) > 0
+    if substeps is None:
+        substeps = 1
+        if vibrating:
+            substeps = min(MAX_SUBSTEPS, max(1, math.ceil(
+                MIN_STEPS_PER_PERIOD * frequency * sample_dt - 1e-9)))
+    if not 1 <= int(substeps) <= 64:
+        raise InputError(f"substeps {substeps} must lie in 1..64")
+    substeps = int(substeps)
+    timestep = sample_dt / substeps
+    # Support displacement at every step's end (the motion actuator's ctrl).
+    if "support_position_m" in columns:
+        support_position = np.asarray(columns["support_position_m"], dtype=float)
+    elif "support_velocity_m_per_s" in columns:
+        support_position = cumulative_trapezoid(support_velocity, t)
+    else:
+        support_position = np.zeros_like(t)
+    nstep = (len(t) - 1) * substeps + 1
+    step_ends = t[0] + timestep * np.arange(1, nstep + 1)
+    if substeps == 1:
+        table = np.append(support_position[1:], 2 * support_position[-1] - support_position[-2])
+    else:
+        table = make_interp_spline(t, support_position, k=3)(step_ends, extrapolate=True)
+    position = np.asarray(dataset.position_m, dtype=float)
+    velocity0 = float(dataset.velocity_m_per_s[0]) if "velocity_m_per_s" in columns else \
+        float(smoothed_derivative(position[:32], t[:32])[0])
+    if "friction_force_N" in columns:
+        friction0 = float(columns["friction_force_N"][0])
+    elif "drive_force_N" in columns:
+        friction0 = float(columns["drive_force_N"][0])  # at rest: the spring holds the slider
+    else:
+        friction0 = 0.0
+    drive0 = float(columns["drive_force_N"][0]) if "drive_force_N" in columns else 0.0
+    drive_end0 = float(position[0]) + drive0 / k_d
+    drive_end = drive_end0 + v_d * (step_ends - t[0])
+    control = np.zeros((nstep, 4))
+    control[:, 0], control[:, 1] = table, drive_end  # actuator order of rig.xml
+    normal = dataset.normal_force_N
+    normal_known = normal is not None
+    rig = RigParameters(
+        mass_kg=meta.mass_kg or 1.0, drive_stiffness_N_per_m=k_d, drive_velocity_m_per_s=v_d,
+        vibration_frequency_Hz=frequency or 0.0, vibration_velocity_amplitude_m_per_s=0.0,
+        normal_force_N=float(np.median(normal)) if normal_known else UNIT_NORMAL_FORCE_N)
+    return RigReplay(
+        name=dataset.name, time_s=t, substeps=substeps, timestep_s=timestep, control=control,
+        measured=measured, noise={c: noise_sd(v) for c, v in measured.items()}, rig=rig,
+        mass_known=meta.mass_kg is not None, normal_force_known=normal_known,
+        initial_position_m=float(position[0]), initial_velocity_m_per_s=velocity0,
+        initial_support_position_m=float(support_position[0]),
+        initial_support_velocity_m_per_s=float(support_velocity[0]),
+        initial_drive_end_m=drive_end0, initial_friction_N=friction0, vibrating=vibrating)
+
+
+def noise_sd(values: np.ndarray) -> float:
+    """White-noise standard deviation from the median absolute third difference.
+
+    The third difference of white noise has variance 20 sigma^2; a signal smooth on the sample
+    scale contributes little, and the median ignores the few samples at sharp transitions.
+    A floor of 1e-9 of the signal's range keeps a noise-free channel's weight finite.
+    """
+    d3 = np.diff(np.asarray(values, dtype=float), 3)
+    sd = 1.4826 * float(np.median(np.abs(d3 - np.median(d3)))) / math.sqrt(20.0)
+    span = float(np.ptp(values)) or float(np.max(np.abs(values))) or 1.0
+    return max(sd, 1e-9 * span)
+
+
+def with_rig(replay: RigReplay, **changes: float) -> RigParameters:
+    return replace(replay.rig, **changes)
+
+
+def _cpu_count() -> int:
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+__all__ = ["RigReplay", "Replayer", "prepare_replay", "noise_sd", "OUTPUT_CHANNELS",
+           "MIN_STEPS_PER_PERIOD"]

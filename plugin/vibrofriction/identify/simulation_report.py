@@ -1,0 +1,205 @@
+"""report.json, report.md and a figure for an identification by simulation (the rig replay).
+
+report.json has the keys of the inverse path's report (``law``, ``baseline``, ``candidates``,
+``selected_effects``, ``final``, ``residual_peaks_Hz``) plus ``method``, ``channels`` (every
+measured channel's error) and ``settings``; ``rmse_N``/``relerr_pct`` are of the measured force
+(friction force when measured, else drive force).
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..params import RigParameters
+from .model import EFFECT_FIELDS, EFFECTS
+from .report import write_folder
+from .simulation import SimFit, SimIdentification
+
+_UNITS = {"position_m": "m", "velocity_m_per_s": "m/s", "acceleration_m_per_s2": "m/s^2",
+          "drive_force_N": "N", "friction_force_N": "N"}
+
+
+def parameters(result: SimIdentification, fit: SimFit) -> dict[str, float | None]:
+    """Every value of the fitted scene: friction attributes and the rig's values."""
+    rig, friction = _case(result, fit)
+    out: dict[str, Any] = {k: v for k, v in dataclasses.asdict(friction).items() if k != "law"}
+    out.update({"mass_kg": rig.mass_kg, "drive_damping_N_s_per_m": rig.drive_damping_N_s_per_m,
+                "normal_force_N": rig.normal_force_N})
+    return {k: _finite(v) for k, v in out.items()}
+
+
+def _case(result: SimIdentification, fit: SimFit) -> tuple[RigParameters, Any]:
+    replay = result.train
+    friction = fit.model.friction_parameters(fit.values)
+    rig = dataclasses.replace(
+        replay.rig, mass_kg=fit.values.get("mass_kg", replay.rig.mass_kg),
+        drive_damping_N_s_per_m=fit.values.get("drive_damping_N_s_per_m", 0.0))
+    return rig, friction
+
+
+def report_json(result: SimIdentification) -> dict[str, Any]:
+    def block(fit: SimFit) -> dict[str, Any]:
+        return {"parameters": parameters(result, fit), "train": fit.train.as_dict(False),
+                "validation": [m.as_dict(True) for m in fit.validation],
+                "channels": {c: {"rmse": m.rmse_N, "relerr_pct": _finite(m.relerr_pct)}
+                             for c, m in fit.channels.items()}}
+
+    candidates = []
+    for effect in EFFECTS:
+        c = result.candidates.get(effect)
+        if c is None:
+            continue
+        candidates.append({"effect": effect, "parameters": parameters(result, c.fit),
+                           "train": c.fit.train.as_dict(False),
+                           "validation": [m.as_dict(True) for m in c.fit.validation],
+                           "criterion": _finite(c.delta_bic), "justified": c.justified,
+                           "reason": c.reason})
+    return {
+        "law": result.law,
+        "method": "simulation",
+        "measured_force": result.primary,
+        "baseline": block(result.baseline),
+        "candidates": candidates,
+        "selected_effects": list(result.selected),
+        "final": block(result.final),
+        "residual_peaks_Hz": list(result.residual_peaks_Hz),
+        "skipped": dict(result.skipped),
+        "settings": {**result.settings, "simulations": result.simulations,
+                     "seconds": round(result.seconds, 3)},
+        "set": set_line(result),
+    }
+
+
+def set_line(result: SimIdentification) -> str:
+    """The ``--set`` options that run the final model in ``vibrofriction simulate``."""
+    p = parameters(result, result.final)
+    names = ["friction_coefficient", "normal_force_N", "mass_kg"] + \
+        [n for n in result.final.values if n in p and n not in ("friction_coefficient",
+                                                                 "mass_kg")]
+    if "normal_force_modulation" in result.final.values:
+        names.append("normal_force_modulation_frequency_Hz")
+    parts = [f"--law {result.law}"]
+    for n in dict.fromkeys(names):
+        if p.get(n) is not None:
+            parts.append(f"--set {n}={p[n]:.9g}")
+    return " ".join(parts)
+
+
+def report_markdown(result: SimIdentification) -> str:
+    r = result
+    replay = r.train
+    lines = [f"# Identification by simulation: {replay.name}", "",
+             f"- law: **{r.law}**" + (f" + declared {', '.join(r.declared)}" if r.declared
+                                      else ""),
+             "- method: output error. The rig scene (mjcf_models/rig) runs in MuJoCo with the "
+             "friction plugin, driven by the record's support motion and the drive end's "
+             "motion; its sensors predict what the record measured. Nothing measured is "
+             "differentiated to form the prediction.",
+             f"- MuJoCo timestep {replay.timestep_s:.4g} s ({replay.substeps} step(s) a "
+             f"sample); {r.simulations} simulations in {r.seconds:.1f} s",
+             f"- record: `{replay.name}`, {replay.n} samples; measured outputs: " +
+             ", ".join(f"{c} (noise sd {replay.noise[c]:.3g} {_UNITS[c]})"
+                       for c in replay.channels),
+             "- held-out records: " + (", ".join(f"`{v.name}`" for v in r.validation) or
+                                       "none"),
+             "- normal force: " + (f"{replay.rig.normal_force_N:.6g} N" if
+                                   replay.normal_force_known else
+                                   "not given: F_N = 1 N, so friction_coefficient is the "
+                                   "friction level in N"),
+             "- mass: " + ("identified" if r.settings.get("fit_mass") else
+                           f"{replay.rig.mass_kg:g} kg (sidecar)"),
+             "", "## Error before and after", "",
+             "| model | " + " | ".join(f"{c} relerr" for c in replay.channels) +
+             "".join(f" | held-out `{v.name}`" for v in r.validation) + " |",
+             "|---|" + "---|" * (len(replay.channels) + len(r.validation))]
+    for label, fit in (("baseline", r.baseline), ("final", r.final)):
+        cells = [f"{fit.channels[c].relerr_pct:.4g} %" for c in replay.channels]
+        cells += [f"{m.relerr_pct:.4g} %" for m in fit.validation]
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    lines += ["", "relerr = 100 ||y - y_sim|| / ||y|| of each measured channel; held-out "
+              f"columns are of {r.primary}.", "", "## Selected effects", ""]
+    if not r.selected:
+        lines.append("None: no candidate passed the criterion; the baseline is the final "
+                     "model.")
+    for effect in r.selected:
+        c = r.candidates[effect]
+        values = ", ".join(f"{n} = {c.fit.values[n]:.6g}" for n in EFFECT_FIELDS[effect]
+                           if n in c.fit.values)
+        lines.append(f"- **{effect}** (round {c.round}): {c.reason}. {values}.")
+    lines += ["", "## Candidates", "",
+              "dBIC = n_eff ln((RSS_E + F)/(RSS_M + F)) + (k_E - k_M) ln n_eff on the "
+              "noise-weighted residual of all channels; F is the simulator's own error (the "
+              "baseline at this timestep against half of it), so discretization error selects "
+              "nothing. Justified when dBIC < "
+              f"{r.settings['bic_threshold']:g}, the weighted RMSE falls by at least "
+              f"{100 * r.settings['min_improvement']:g} %, held-out error falls, and a "
+              "periodic effect beats an additive tone.", "",
+              "| round | effect | dBIC | weighted RMSE change | verdict |", "|---|---|---|---|---|"]
+    for round_ in r.rounds:
+        for c in round_:
+            lines.append(f"| {c.round} | {c.effect} | {c.delta_bic:.1f} | "
+                         f"{-100 * c.train_drop:+.2f} % | "
+                         f"{'justified' if c.justified else 'no: ' + c.reason} |")
+    for effect, why in r.skipped.items():
+        lines.append(f"| – | {effect} | – | – | not a candidate: {why} |")
+    lines += ["", "## Final model", "", "| parameter | value |", "|---|---|"]
+    for name, value in parameters(r, r.final).items():
+        if value is not None:
+            lines.append(f"| `{name}` | {value:.9g} |")
+    lines += ["", "Residual peaks (Hz, " + r.primary + "): " +
+              (", ".join(f"{f:.6g}" for f in r.residual_peaks_Hz) or "none"), "",
+              "Run the fitted rig:", "", f"    vibrofriction simulate {set_line(r)}", ""]
+    return "\n".join(lines)
+
+
+def write_report(result: SimIdentification, out_dir, *, figures: bool = True) -> Path:
+    def write(tmp: Path) -> None:
+        (tmp / "report.json").write_text(json.dumps(report_json(result), indent=2) + "\n")
+        (tmp / "report.md").write_text(report_markdown(result))
+        if figures:
+            _figure(result, tmp / "fit.png")
+
+    return write_folder(out_dir, write)
+
+
+def _figure(result: SimIdentification, path: Path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    replay = result.train
+    channel = result.primary
+    t = replay.time_s
+    measured = replay.measured[channel]
+    fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    axes[0].plot(t, measured, lw=0.6, color="0.4", label="measured")
+    axes[0].plot(t, result.baseline.predicted[channel], lw=0.8, label="baseline (simulated)")
+    axes[0].plot(t, result.final.predicted[channel], lw=0.8, ls="--",
+                 label="final (simulated)")
+    axes[0].set_ylabel(f"{channel}")
+    axes[0].legend(loc="best", fontsize=8)
+    axes[1].plot(t, result.baseline.predicted[channel] - measured, lw=0.5, label="baseline")
+    axes[1].plot(t, result.final.predicted[channel] - measured, lw=0.5, label="final")
+    axes[1].set_ylabel("simulated - measured")
+    axes[1].set_xlabel("time_s")
+    axes[1].legend(loc="best", fontsize=8)
+    fig.suptitle(f"{replay.name}: {result.law}, selected: "
+                 f"{', '.join(result.selected) or 'nothing'}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _finite(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return float(value) if isinstance(value, (int, float, np.floating)) and \
+        not isinstance(value, bool) else value
+
+
+__all__ = ["report_json", "report_markdown", "write_report", "parameters", "set_line"]
