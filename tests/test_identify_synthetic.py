@@ -148,11 +148,13 @@ def test_final_model_is_a_mujoco_rig_model_that_reproduces_the_record(results, r
 def test_cli_writes_the_report(records, tmp_path, capsys) -> None:
     train, held = records["asymmetry"]
     out = tmp_path / "report"
-    code = cli.main(["identify", str(train), "--validate", str(held), "--out", str(out)])
+    code = cli.main(["identify", str(train), "--validate", str(held), "--out", str(out),
+                     "--method", "inverse"])
     assert code == 0
     report = json.loads((out / "report.json").read_text())
-    assert list(report) == ["law", "baseline", "candidates", "selected_effects", "final",
-                            "residual_peaks_Hz"]
+    assert list(report) == ["law", "method", "method_reason", "baseline", "candidates",
+                            "selected_effects", "final", "residual_peaks_Hz"]
+    assert report["method"] == "inverse" and "--method inverse" in report["method_reason"]
     assert report["law"] == "lugre"
     assert report["selected_effects"] == ["asymmetry"]
     for block in (report["baseline"], report["final"]):
@@ -184,7 +186,7 @@ def test_failure_while_writing_leaves_nothing(records, tmp_path, monkeypatch) ->
     train, _ = records["clean"]
     out = tmp_path / "report"
     with pytest.raises(RuntimeError):
-        cli.main(["identify", str(train), "--out", str(out)])
+        cli.main(["identify", str(train), "--out", str(out), "--method", "inverse"])
     assert list(tmp_path.iterdir()) == []
 
 
@@ -198,10 +200,12 @@ def test_bad_input_is_one_clear_error(records, tmp_path, capsys, argv, message) 
     train, _ = records["clean"]
     if message is None:  # argparse rejects it (exit code 2, usage on stderr)
         with pytest.raises(SystemExit) as exc:
-            cli.main(["identify", str(train), "--out", str(tmp_path / "o"), *argv])
+            cli.main(["identify", str(train), "--out", str(tmp_path / "o"), "--method",
+                      "inverse", *argv])
         assert exc.value.code == 2
     else:
-        assert cli.main(["identify", str(train), "--out", str(tmp_path / "o"), *argv]) == 2
+        assert cli.main(["identify", str(train), "--out", str(tmp_path / "o"), "--method",
+                         "inverse", *argv]) == 2
         err = capsys.readouterr().err
         assert message in err and err.count("\n") == 1, err
     assert not (tmp_path / "o").exists()

@@ -16,8 +16,8 @@ a differentiated measurement: ``position_m`` (slider position), ``velocity_m_per
 
 Initial state: slider position measured; velocity measured or, where not, a smoothing estimate
 (``datasets.smoothed_derivative``: an estimate of the state, not a prediction); contact
-deflection at equilibrium with the force at the first sample (z = F / k_t, inside the elastic
-range).
+deflection at equilibrium with the drive force at the first sample (else the friction force;
+z = F / k_t, inside the elastic range).
 
 Each sample interval is cut into ``substeps`` MuJoCo steps (default: the fewest that give at
 least ``MIN_STEPS_PER_PERIOD`` steps a vibration period). Many parameter sets run at once on
@@ -45,6 +45,7 @@ OUTPUT_CHANNELS = ("position_m", "velocity_m_per_s", "acceleration_m_per_s2", "d
                    "friction_force_N")
 MIN_STEPS_PER_PERIOD = 40  # at 4 kHz: 6.25 us; the study's timestep rule uses ~50
 MAX_SUBSTEPS = 16
+NOISE_FLOOR_OF_RANGE = 1e-4
 # Unit normal load when the record gives none: the fitted coefficient is then the level in N.
 UNIT_NORMAL_FORCE_N = 1.0
 _ELASTIC_FRACTION = 0.9  # initial deflection at most this fraction of the sliding deflection
@@ -244,10 +245,12 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
     position = np.asarray(dataset.position_m, dtype=float)
     velocity0 = float(dataset.velocity_m_per_s[0]) if "velocity_m_per_s" in columns else \
         float(smoothed_derivative(position[:32], t[:32])[0])
-    if "friction_force_N" in columns:
+    # Quasi-static equilibrium: the spring holds the slider (a measured friction force at the
+    # first sample may be mostly bristle damping of a starting motion, not deflection).
+    if "drive_force_N" in columns:
+        friction0 = float(columns["drive_force_N"][0])
+    elif "friction_force_N" in columns:
         friction0 = float(columns["friction_force_N"][0])
-    elif "drive_force_N" in columns:
-        friction0 = float(columns["drive_force_N"][0])  # at rest: the spring holds the slider
     else:
         friction0 = 0.0
     drive0 = float(columns["drive_force_N"][0]) if "drive_force_N" in columns else 0.0
@@ -276,12 +279,14 @@ def noise_sd(values: np.ndarray) -> float:
 
     The third difference of white noise has variance 20 sigma^2; a signal smooth on the sample
     scale contributes little, and the median ignores the few samples at sharp transitions.
-    A floor of 1e-9 of the signal's range keeps a noise-free channel's weight finite.
+    A floor of ``NOISE_FLOOR_OF_RANGE`` of the signal's range: a channel resolved better than
+    that (a noise-free record) does not outweigh the others, whose replay through measured,
+    interpolated inputs is no more faithful either.
     """
     d3 = np.diff(np.asarray(values, dtype=float), 3)
     sd = 1.4826 * float(np.median(np.abs(d3 - np.median(d3)))) / math.sqrt(20.0)
     span = float(np.ptp(values)) or float(np.max(np.abs(values))) or 1.0
-    return max(sd, 1e-9 * span)
+    return max(sd, NOISE_FLOOR_OF_RANGE * span)
 
 
 def with_rig(replay: RigReplay, **changes: float) -> RigParameters:

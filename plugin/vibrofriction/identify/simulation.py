@@ -25,6 +25,7 @@ Selection (forward, as the inverse path): a candidate effect is justified when
 """
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from dataclasses import dataclass, field, replace
@@ -48,7 +49,8 @@ _FD_STEP = 1e-4  # forward-difference step in the internal coordinates (O(1) sca
 BASELINE_EVALUATIONS = 60
 CANDIDATE_EVALUATIONS = 12
 _LEVEL_SCAN = (1.0, 1.6, 2.5, 4.0, 6.0)  # mu F_N over the drive-force level (vibration lowers it)
-_DEFLECTION_SCAN_M = np.logspace(-10, -5, 6)  # characteristic deflection mu F_N / k_t
+_DEFLECTION_SCAN_M = np.logspace(-10, -5, 16)  # characteristic deflection mu F_N / k_t
+_BREAKAWAY_SCAN = (0.3, 0.6, 0.85)  # Dupont
 _STRIBECK_SCAN = np.logspace(-1.5, 0.5, 6)  # v_s over the rms sliding velocity
 
 
@@ -265,7 +267,7 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
         (f", {len(problem.validation)} held-out record(s)" if problem.validation else ""))
     skipped = _not_applicable(replay, law, declared)
     declared = tuple(e for e in EFFECTS if e in declared and e not in skipped)
-    scales, start = _start(problem, law, fit_mass)
+    scales, start = _start(problem, law, fit_mass, declared)
     model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law))
     say(f"baseline: fitting {model.k} parameters ({', '.join(model.names)})")
     baseline = problem.fit(model, start, BASELINE_EVALUATIONS)
@@ -329,14 +331,14 @@ def _not_applicable(replay: RigReplay, law: str, declared: Sequence[str]) -> dic
 
 # ------------------------------------------------------------------------------- starting
 
-def _start(problem: SimulationProblem, law: str,
-           fit_mass: bool) -> tuple[Scales, dict[str, float]]:
+def _start(problem: SimulationProblem, law: str, fit_mass: bool,
+           declared: Sequence[str] = ()) -> tuple[Scales, dict[str, float]]:
     """Scales and a start: a batch of (level, stiffness) pairs simulated at once."""
     replay = problem.train
     normal = replay.rig.normal_force_N
     if "friction_force_N" in replay.measured:
         level = float(np.quantile(np.abs(replay.measured["friction_force_N"]), 0.95))
-        levels = [level]
+        levels = [level * r for r in (0.9, 1.0, 1.1)] if "stribeck" in declared else [level]
     else:
         drive = replay.measured["drive_force_N"]
         level = float(np.mean(np.abs(drive[len(drive) // 2:])))
@@ -347,22 +349,30 @@ def _start(problem: SimulationProblem, law: str,
     scales = Scales(force_N=level, velocity_m_per_s=max(v_rms, abs(replay.rig.drive_velocity_m_per_s)),
                     normal_force_N=normal, dt_s=dt,
                     travel_m=float(np.ptp(replay.measured.get("position_m", [0.0]))) or 1e-3)
-    model = Model.build(law, (), fit_mass, scales, FrictionParameters(law=law))
+    model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law))
     trials = []
     deflections = _DEFLECTION_SCAN_M if law != "coulomb" else [None]
-    for lv in levels:
-        for deflection in deflections:
-            values = {"friction_coefficient": lv / normal, "alpha": 1.0,
-                      "breakaway_ratio": 0.7, "bristle_damping_N_s_per_m": 0.0}
-            if deflection is not None:
-                k_t = lv / deflection
-                values["contact_stiffness_N_per_m"] = k_t
-                if law == "lugre":
-                    values["bristle_damping_N_s_per_m"] = lugre_default_bristle_damping(
-                        k_t, replay.rig.mass_kg)
-            if fit_mass:
-                values["mass_kg"] = replay.rig.mass_kg
-            trials.append(values)
+    breakaways = _BREAKAWAY_SCAN if law == "dupont" else (0.7,)
+    # A declared Stribeck curve: at static_ratio 1 its velocity has no gradient, so scan both.
+    stribeck = [{}]
+    if "stribeck" in declared:
+        stribeck = [{"static_ratio": ratio, "stribeck_velocity_m_per_s": r * scales.velocity_m_per_s}
+                    for ratio in (1.2, 1.6) for r in (0.3, 1.0, 3.0)]
+    for lv, deflection, breakaway, curve in itertools.product(levels, deflections, breakaways,
+                                                              stribeck):
+        # (with a Stribeck curve the level scanned is its peak, mu F_N static_ratio)
+        values = {"friction_coefficient": lv / normal / curve.get("static_ratio", 1.0),
+                  "alpha": 1.0, "breakaway_ratio": breakaway, "bristle_damping_N_s_per_m": 0.0,
+                  **curve}
+        if deflection is not None:
+            k_t = lv / deflection
+            values["contact_stiffness_N_per_m"] = k_t
+            if law == "lugre":
+                values["bristle_damping_N_s_per_m"] = lugre_default_bristle_damping(
+                    k_t, replay.rig.mass_kg)
+        if fit_mass:
+            values["mass_kg"] = replay.rig.mass_kg
+        trials.append(values)
     internal = [model.internal(_internal_names(model, v)) for v in trials]
     residuals = problem.residuals(model, internal)
     best = int(np.argmin([float(r @ r) for r in residuals]))
