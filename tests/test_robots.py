@@ -89,6 +89,7 @@ def test_the_table_file_is_made_from_the_resolved_scene():
     text = robots.table_files()["plate_push_table.xml"]
     committed = (robots.ROBOTS_DIR / "plate_push_table.xml").read_text()
     fresh_config, committed_config = _table_config(text), _table_config(committed)
+    assert fresh_config and "table_along" in fresh_config
     assert fresh_config.keys() == committed_config.keys()
     for key, fresh in fresh_config.items():
         try:

@@ -31,6 +31,18 @@ bool MotionConfig::FromModel(const mjModel* m, int instance, MotionConfig* confi
       !ReadNumber(m, instance, kPlugin, kPhase, 0.0, &c.phase)) {
     return false;
   }
+  if (!ReadBool(m, instance, kPlugin, kUseCtrl, false, &c.use_ctrl)) return false;
+  if (!ReadBool(m, instance, kPlugin, kDisplacementFromCtrl, false,
+                &c.displacement_from_ctrl)) {
+    return false;
+  }
+  if (c.displacement_from_ctrl &&
+      (c.frequency != 0 || c.velocity_amplitude != 0 || c.velocity != 0 || c.phase != 0 ||
+       c.use_ctrl)) {
+    mju_warning("%s: displacement_from_ctrl=\"true\" takes the whole motion from ctrl; remove "
+                "frequency, velocity_amplitude, velocity, phase and use_ctrl", kPlugin);
+    return false;
+  }
   if (c.frequency < 0) {
     mju_warning("%s: attribute 'frequency'=\"%g\" must be >= 0 (Hz)", kPlugin, c.frequency);
     return false;
@@ -42,18 +54,6 @@ bool MotionConfig::FromModel(const mjModel* m, int instance, MotionConfig* confi
   }
   if (c.velocity_amplitude > 0 && c.frequency == 0) {
     mju_warning("%s: velocity_amplitude is set but frequency is 0; set frequency (Hz)", kPlugin);
-    return false;
-  }
-  if (!ReadBool(m, instance, kPlugin, kUseCtrl, false, &c.use_ctrl)) return false;
-  if (!ReadBool(m, instance, kPlugin, kDisplacementFromCtrl, false,
-                &c.displacement_from_ctrl)) {
-    return false;
-  }
-  if (c.displacement_from_ctrl &&
-      (c.frequency != 0 || c.velocity_amplitude != 0 || c.velocity != 0 || c.phase != 0 ||
-       c.use_ctrl)) {
-    mju_warning("%s: displacement_from_ctrl=\"true\" takes the whole motion from ctrl; remove "
-                "frequency, velocity_amplitude, velocity, phase and use_ctrl", kPlugin);
     return false;
   }
   c.actuator = FindActuator(m, instance, kPlugin);

@@ -87,6 +87,8 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--substeps {args.substeps} must lie in 1..64")
     if not (math.isfinite(args.timestep) and args.timestep > 0):
         raise UsageError(f"--timestep {args.timestep} must be a positive number of seconds")
+    if args.json_path is not None:
+        _check_json_target(args.json_path)
     overrides = _metadata_overrides(args.overrides)
     train = _with_metadata(read_dataset(args.data), overrides)
     held = [_with_metadata(read_dataset(path), overrides) for path in args.validate]
@@ -96,7 +98,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"[{time.monotonic() - started:6.1f} s] {message}", file=sys.stderr, flush=True)
 
     method, reason = _method(args.method, train)
-    progress(f"method: {method} ({reason})")
     if method == "simulation":
         return _run_simulation(args, train, held, out, declared, reason, progress)
     result = identify(train, held, law=args.law, declared=declared, substeps=args.substeps,
@@ -148,23 +149,19 @@ def _run_simulation(args, train, held, out, declared, reason, progress) -> int:
     if not args.no_figures:
         progress("writing report and figures")
     payload = simulation_report.report_json(result)
-    if args.json_path is not None:
-        _check_json_target(args.json_path)
     simulation_report.write_report(result, out, figures=not args.no_figures)
     if args.json_path is not None:
         write_json(args.json_path, payload)
     b, f = result.baseline.train, result.final.train
-    print(f"{train.name}: {result.primary} relerr baseline {b.relerr_pct:.3g} % -> final "
-          f"{f.relerr_pct:.3g} % (selected: {', '.join(result.selected) or 'nothing'}); "
-          f"report in {out}")
+    print(f"{train.name}: identified by simulation ({reason}); {result.primary} relerr "
+          f"baseline {b.relerr_pct:.3g} % -> final {f.relerr_pct:.3g} % (selected: "
+          f"{', '.join(result.selected) or 'nothing'}); report in {out}")
     return 0
 
 
 def _check_json_target(path: Path) -> None:
     if path.is_dir():
         raise UsageError(f"--json {path} is a folder; name a file")
-    if not path.resolve().parent.is_dir():
-        raise UsageError(f"--json {path}: folder {path.resolve().parent} does not exist")
 
 
 def _metadata_overrides(pairs) -> dict[str, float]:

@@ -38,7 +38,7 @@ from ..datasets import Dataset
 from ..errors import InputError
 from ..params import LAWS, FrictionParameters, RigParameters, lugre_default_bristle_damping
 from .analysis import effective_samples, spectral_peaks
-from .fit import Metrics
+from .fit import Metrics, _metrics
 from .model import EFFECT_INTERNALS, EFFECTS, Model, Scales
 from .replay import Replayer, RigReplay, prepare_replay
 from .selection import BIC_THRESHOLD, MIN_IMPROVEMENT
@@ -47,6 +47,7 @@ ProgressFn = Callable[[str], None]
 _TOL = 1e-8
 _FD_STEP = 1e-4  # forward-difference step in the internal coordinates (O(1) scaled)
 BASELINE_EVALUATIONS = 60
+BASELINE_STARTS = 3
 CANDIDATE_EVALUATIONS = 12
 _LEVEL_SCAN = (1.0, 1.6, 2.5, 4.0, 6.0)  # mu F_N over the drive-force level (vibration lowers it)
 _DEFLECTION_SCAN_M = np.logspace(-10, -5, 16)  # characteristic deflection mu F_N / k_t
@@ -214,14 +215,6 @@ class SimulationProblem:
                       at_bound=at_bound)
 
 
-def _metrics(name: str, predicted: np.ndarray, measured: np.ndarray) -> Metrics:
-    error = predicted - measured
-    norm = float(np.linalg.norm(measured))
-    return Metrics(dataset=name, rmse_N=float(np.sqrt(np.mean(error ** 2))),
-                   relerr_pct=100.0 * float(np.linalg.norm(error)) / norm if norm > 0
-                   else math.inf)
-
-
 # ------------------------------------------------------------------------------ identify
 
 def identify_by_simulation(train: Dataset, validation: Sequence[Dataset] = (), *,
@@ -240,9 +233,6 @@ def identify_by_simulation(train: Dataset, validation: Sequence[Dataset] = (), *
         raise InputError(f"unknown effect(s) {', '.join(unknown)}; the vocabulary is "
                          f"{', '.join(EFFECTS)}")
     replay = prepare_replay(train, substeps=substeps)
-    if not {"drive_force_N", "friction_force_N"} & set(replay.channels):
-        raise InputError(f"{train.source_path or train.name}: the record measures no force "
-                         "(drive_force_N or friction_force_N); identification needs one")
     held = [prepare_replay(d, substeps=replay.substeps) for d in validation]
     for h in held:
         missing = set(replay.channels) - set(h.channels)
@@ -267,10 +257,14 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
         (f", {len(problem.validation)} held-out record(s)" if problem.validation else ""))
     skipped = _not_applicable(replay, law, declared)
     declared = tuple(e for e in EFFECTS if e in declared and e not in skipped)
-    scales, start = _start(problem, law, fit_mass, declared)
+    scales, starts = _start(problem, law, fit_mass, declared)
     model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law))
-    say(f"baseline: fitting {model.k} parameters ({', '.join(model.names)})")
-    baseline = problem.fit(model, start, BASELINE_EVALUATIONS)
+    say(f"baseline: fitting {model.k} parameters ({', '.join(model.names)}) from the "
+        f"{len(starts)} best start(s) of a scan")
+    # Several starts: a record that measures little of the contact (position and drive force
+    # only) has more than one basin in the contact stiffness.
+    baseline = min((problem.fit(model, start, BASELINE_EVALUATIONS) for start in starts),
+                   key=lambda fit: fit.rss)
     problem.floor = _numerical_floor(problem, baseline)
     say(f"baseline: {problem.primary} relerr {baseline.train.relerr_pct:.3g} %; simulator "
         f"error floor {math.sqrt(problem.floor / len(baseline.residual)):.3g} (weighted rms)")
@@ -332,8 +326,8 @@ def _not_applicable(replay: RigReplay, law: str, declared: Sequence[str]) -> dic
 # ------------------------------------------------------------------------------- starting
 
 def _start(problem: SimulationProblem, law: str, fit_mass: bool,
-           declared: Sequence[str] = ()) -> tuple[Scales, dict[str, float]]:
-    """Scales and a start: a batch of (level, stiffness) pairs simulated at once."""
+           declared: Sequence[str] = ()) -> tuple[Scales, list[dict[str, float]]]:
+    """Scales and the best starts of a scan (level, stiffness, shape) simulated at once."""
     replay = problem.train
     normal = replay.rig.normal_force_N
     if "friction_force_N" in replay.measured:
@@ -375,8 +369,8 @@ def _start(problem: SimulationProblem, law: str, fit_mass: bool,
         trials.append(values)
     internal = [model.internal(_internal_names(model, v)) for v in trials]
     residuals = problem.residuals(model, internal)
-    best = int(np.argmin([float(r @ r) for r in residuals]))
-    return scales, _internal_names(model, trials[best])
+    order = np.argsort([float(r @ r) for r in residuals])
+    return scales, [_internal_names(model, trials[i]) for i in order[:BASELINE_STARTS]]
 
 
 def _internal_names(model: Model, values: Mapping[str, float]) -> dict[str, float]:

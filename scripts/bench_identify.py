@@ -1,0 +1,78 @@
+#!/usr/bin/env python3
+"""Identification by simulation: round trips of the four laws and the time they take.
+
+For each law, a record of the rig written as `vibrofriction simulate --csv` would (v_a = 1.5
+mm/s, the issue's parameters) is identified with the same law; prints each law parameter's
+relative error, the selections, the simulations run and the wall time. With --lab it also
+times a 0.4 s, 100 kHz position-only record of the scipy reference rig with sensor noise
+(issue 17 asks <= 60 s on 2 cores).
+
+    python scripts/bench_identify.py [--duration 0.1] [--lab]
+"""
+from __future__ import annotations
+
+import argparse
+import time
+from dataclasses import replace
+
+from vibrofriction import rig, synthetic
+from vibrofriction.commands.simulate import dataset_of
+from vibrofriction.datasets import Dataset
+from vibrofriction.identify.simulation import identify_by_simulation
+from vibrofriction.params import FrictionParameters, RigParameters
+
+RIG = RigParameters(vibration_velocity_amplitude_m_per_s=1.5e-3)
+LAWS = {
+    "coulomb": (FrictionParameters(law="coulomb", friction_coefficient=0.21), ()),
+    "dahl": (FrictionParameters(law="dahl", friction_coefficient=0.17,
+                                contact_stiffness_N_per_m=60e6, alpha=1.5), ()),
+    "dupont": (FrictionParameters(law="dupont", friction_coefficient=0.19,
+                                  contact_stiffness_N_per_m=70e6, breakaway_ratio=0.6), ()),
+    "lugre": (FrictionParameters(law="lugre", friction_coefficient=0.22,
+                                 contact_stiffness_N_per_m=90e6, static_ratio=1.3,
+                                 stribeck_velocity_m_per_s=2e-3,
+                                 bristle_damping_N_s_per_m=1265.0), ("stribeck",)),
+}
+POSITION_ONLY = ("time_s", "drive_force_N", "position_m", "support_velocity_m_per_s")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--duration", type=float, default=0.1, help="record length (s)")
+    parser.add_argument("--lab", action="store_true", help="also the 0.4 s lab record")
+    args = parser.parse_args()
+    print("| law | record | parameter errors | selected | simulations | wall s |")
+    print("|---|---|---|---|---|---|")
+    for law, (truth, declared) in LAWS.items():
+        run = rig.simulate(RIG, truth, timestep_s=rig.recommended_timestep(RIG),
+                           duration_s=args.duration)
+        full = dataset_of(run, law)
+        position_only = Dataset(name=f"{law}_position_only",
+                                columns={c: full.columns[c] for c in POSITION_ONLY},
+                                metadata=full.metadata)
+        for label, record in (("all channels", full), ("position only", position_only)):
+            started = time.monotonic()
+            result = identify_by_simulation(record, law=law, declared=declared)
+            seconds = time.monotonic() - started
+            errors = ", ".join(
+                f"{name} {100 * (value / getattr(truth, name) - 1):+.3f} %"
+                for name, value in result.final.values.items()
+                if getattr(truth, name, 0))
+            print(f"| {law} | {label} | {errors} | {', '.join(result.selected) or 'nothing'} "
+                  f"| {result.simulations} | {seconds:.1f} |", flush=True)
+    if args.lab:
+        scenario = replace(synthetic.with_effect(None), duration_s=0.4, measured="drive")
+        record = synthetic.generate(scenario, name="lab_0.4s")
+        record = Dataset(name=record.name, columns={c: record.columns[c] for c in POSITION_ONLY},
+                         metadata=record.metadata)
+        started = time.monotonic()
+        result = identify_by_simulation(record, law="lugre")
+        print(f"\n0.4 s, 100 kHz position-only reference record (LuGre, noise): "
+              f"{time.monotonic() - started:.1f} s wall, {result.simulations} simulations, "
+              f"selected {', '.join(result.selected) or 'nothing'}, mu "
+              f"{result.final.values['friction_coefficient']:.4f} (true "
+              f"{synthetic.BASE_FRICTION.friction_coefficient})")
+
+
+if __name__ == "__main__":
+    main()
