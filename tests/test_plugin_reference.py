@@ -80,3 +80,23 @@ def test_other_laws_mean_drive_force_within_one_percent(law):
                               settle_time_s=settle)
     assert run.summary().mean_drive_force_N == pytest.approx(
         ref.summary(settle).mean_drive_force_N, rel=0.01)
+
+
+def test_dahl_follows_the_stribeck_curve_like_the_oracle():
+    """Dahl's bound is g(v), as LuGre's (issue 17): static_ratio 1.5, v_s 1 mm/s, alpha 1.5,
+    v_a 0.75 mm/s, dt 1e-6 s. Through loading, breakaway (the Stribeck peak) and the first
+    vibration periods the friction trace overlays the oracle's; the curve itself moves the
+    trace by far more than that."""
+    from dataclasses import replace
+    rig = RigParameters(vibration_velocity_amplitude_m_per_s=0.75e-3)
+    plain = replace(default_friction("dahl", rig), alpha=1.5)
+    curved = replace(plain, static_ratio=1.5, stribeck_velocity_m_per_s=1e-3)
+    duration = 0.03
+    ref = simulate_reference(rig, curved, duration, sample_dt_s=1e-6)
+    ref_plain = simulate_reference(rig, plain, duration, sample_dt_s=1e-6)
+    run = rig_module.simulate(rig, curved, duration_s=duration, timestep_s=1e-6)
+    oracle = np.interp(run.time_s, ref.time_s, ref.friction_force_N)
+    error = rms(run.friction_force_N - oracle)
+    effect = rms(np.interp(run.time_s, ref_plain.time_s, ref_plain.friction_force_N) - oracle)
+    assert error < 1e-3 * PAPER_FRICTION_BOUND_N
+    assert effect > 100 * error

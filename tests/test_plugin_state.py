@@ -81,7 +81,8 @@ def test_state_holds_the_deflection(advanced):
     name, model, data = advanced
     assert model.na == 1
     if name == "lugre_lagged":
-        assert model.nplugin and mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_PLUGIN) == 1
+        friction = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_PLUGIN, "friction")
+        assert model.plugin_statenum[friction] == 1
 
 
 def test_get_set_state_round_trip(advanced):

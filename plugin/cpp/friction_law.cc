@@ -140,7 +140,7 @@ double DeflectionRate(const LawParameters& p, const LawInput& in, double z) {
   const double s = Sign(v);
   switch (p.law) {
     case Law::kDahl: {
-      const double z_c = CoulombLevel(p, in, s) / p.contact_stiffness;
+      const double z_c = StribeckLevel(p, in) / p.contact_stiffness;
       if (z_c <= 0) return 0.0;
       const double w = 1.0 - s * z / z_c;
       // alpha = 1 (the usual value) without pow: the same result, cheaper
@@ -172,7 +172,7 @@ double AdvanceDeflection(const LawParameters& p, const LawInput& in, double z, d
   const double s = Sign(v);
   switch (p.law) {
     case Law::kDahl: {
-      const double z_c = CoulombLevel(p, in, s) / p.contact_stiffness;
+      const double z_c = StribeckLevel(p, in) / p.contact_stiffness;
       if (z_c <= 0) return 0.0;  // no normal load: no friction, no deflection
       if (p.alpha == 1.0) {
         // |w| decays as exp(-|v| t / z_c): z relaxes exponentially to s z_c (as LuGre).
@@ -343,7 +343,7 @@ void PlanarDeflectionRate(const LawParameters& p, const LawInput& in, const doub
   const LawInput at = AtSpeed(in, speed);
   switch (p.law) {
     case Law::kDahl: {
-      const double z_c = CoulombLevel(p, at, 1.0) / p.contact_stiffness;
+      const double z_c = StribeckLevel(p, at) / p.contact_stiffness;
       if (z_c <= 0) return;
       const double e[2] = {dir[0] - z[0] / z_c, dir[1] - z[1] / z_c};
       const double e_norm = std::hypot(e[0], e[1]);
@@ -430,7 +430,7 @@ void AdvancePlanarDeflection(const LawParameters& p, const LawInput& in, const d
   const LawInput at = AtSpeed(in, speed);
   switch (p.law) {
     case Law::kDahl: {
-      const double z_c = CoulombLevel(p, at, 1.0) / p.contact_stiffness;
+      const double z_c = StribeckLevel(p, at) / p.contact_stiffness;
       if (z_c <= 0) {
         z[0] = z[1] = 0.0;
         return;

@@ -7,10 +7,11 @@
 //
 // Laws (see plugin/cpp/README.md for the equations and sources):
 //   coulomb  F = g(v) sgn(v) + s2 v, stick handled by the caller (StickSlipForce)
-//   dahl     dz/dt = v |w|^alpha sgn(w), w = 1 - k_t z sgn(v) / F_c     (Dahl 1968)
+//   dahl     dz/dt = v |w|^alpha sgn(w), w = 1 - k_t z sgn(v) / g(v)    (Dahl 1968)
 //   dupont   dz/dt = v (1 - a(z, v) z / z_ss(v))                         (Dupont et al. 2002)
 //   lugre    dz/dt = v - |v| z s0 / g(v)                                 (Canudas de Wit 1995)
-// with g(v) = F_c + (F_s - F_c) exp(-(v/v_s)^2), F_c = mu F_N (times the effect factors).
+// with g(v) = F_c + (F_s - F_c) exp(-(v/v_s)^2), F_c = mu F_N (times the effect factors):
+// the same velocity-dependent level bounds Dahl's, LuGre's and Dupont's deflection.
 #ifndef VIBROFRICTION_FRICTION_LAW_H_
 #define VIBROFRICTION_FRICTION_LAW_H_
 

@@ -6,7 +6,7 @@
 // vector z = (z_x, z_y) is (act[x], act[y]).
 //
 // With v = (v_x, v_y) the relative velocity (the two transmission velocities):
-//   dahl    dz/dt = |v| |e|^(alpha-1) e,   e = v/|v| - z/z_c,  z_c = mu F_N / k_t
+//   dahl    dz/dt = |v| |e|^(alpha-1) e,   e = v/|v| - z/z_c,  z_c = g(|v|) / k_t
 //   lugre   dz/dt = v - |v| z / z_g(|v|),  z_g = g(|v|) / k_t
 //   dupont  dz/dt = v - a(|z|) |v| z / z_max(|v|), a = 0 unless z.v > 0 (loading) and |z| > z_ba
 //   F = k_t z + sigma1 dz/dt + sigma2 v;    the actuators apply -F.

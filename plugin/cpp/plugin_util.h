@@ -3,6 +3,7 @@
 #ifndef VIBROFRICTION_PLUGIN_UTIL_H_
 #define VIBROFRICTION_PLUGIN_UTIL_H_
 
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <memory>
@@ -136,6 +137,12 @@ void SetPluginCallbacks(mjpPlugin* plugin) {
       InstanceOf<T>(d, instance)->Advance(m, d, instance);
     };
   }
+}
+
+// One step of the first-order lag tau y' + y = input, exact for an input held over the step
+// (the friction element's sensor_lag and the lagged_tendon sensor share it).
+inline double FirstOrderLagStep(double lagged, double input, double dt, double tau) {
+  return lagged + (input - lagged) * -std::expm1(-dt / tau);
 }
 
 // The single actuator backed by `instance`, or -1 (with a warning) if none or several.

@@ -4,6 +4,7 @@
 
 #include "averaged_friction.h"  // vibrofriction.planar, vibrofriction.averaged
 #include "friction_element.h"
+#include "lagged_tendon.h"
 #include "state_sensor.h"
 #include "support_motion.h"
 
@@ -12,4 +13,5 @@ mjPLUGIN_LIB_INIT(vibrofriction) {
   vibrofriction::SupportMotion::RegisterPlugin();
   vibrofriction::RegisterPlanarPlugins();
   vibrofriction::RegisterStateSensors();
+  vibrofriction::LaggedTendon::RegisterPlugin();
 }

@@ -18,7 +18,7 @@ sliding. Friction level with the effects, for the direction ``s`` of v_r::
 
 Laws (s0 = k_t, s1 bristle damping, s2 viscous; all integrated with LSODA):
 
-* ``dahl`` z' = v_r sgn(w)|w|^alpha, w = 1 - k_t z sgn(v_r)/F_c, F = k_t z + s2 v_r
+* ``dahl`` z' = v_r sgn(w)|w|^alpha, w = 1 - k_t z sgn(v_r)/g(v_r), F = k_t z + s2 v_r
   (for alpha < 1 smoothed within |w| < 1e-6, see ``_odd_power``);
 * ``dupont`` (Dupont et al. 2002) z' = v_r (1 - a(z, v_r) z/z_ss(v_r)), z_ss = sgn(v) g(v)/s0,
   z_ba = breakaway_ratio F_c/s0, a = 0 when sgn(v) != sgn(z); F = s0 z + s1 z' + s2 v_r;
@@ -52,6 +52,8 @@ ODE_METHOD = "LSODA"
 STEPS_PER_PERIOD = 20
 # Width in w of the smoothing of sgn(w)|w|^alpha, alpha < 1, at saturation (F moves ~1e-6 F_c).
 DAHL_LAYER = 1e-6
+# A vibration switched on later (``vibration_from_s``) builds up over this many periods.
+VIBRATION_RAMP_PERIODS = 5
 # Consecutive zero-length Coulomb segments tolerated before declaring the event logic stuck.
 _MAX_EMPTY_SEGMENTS = 20
 
@@ -88,8 +90,13 @@ class ReferenceResult:
 def simulate_reference(rig: RigParameters, friction: FrictionParameters, duration_s: float, *,
                        sample_dt_s: float = 1e-6, rtol: float = 1e-8,
                        atol: float | Sequence[float] | None = None,
-                       t_start_s: float = 0.0) -> ReferenceResult:
+                       t_start_s: float = 0.0,
+                       vibration_from_s: float = 0.0) -> ReferenceResult:
     """Integrate the rig from rest (x = x' = z = 0, drive spring unloaded at t = 0).
+
+    ``vibration_from_s`` > 0: the support stands still until then and vibrates from then on,
+    u = u0 r(t) sin(w (t - vibration_from_s)), r rising as (1 - cos)/2 over
+    ``VIBRATION_RAMP_PERIODS`` periods (a stage without vibration first; state laws only).
 
     Samples are uniform from 0 to ``duration_s`` (spacing adjusted so the last sample falls on
     ``duration_s``); those before ``t_start_s`` are dropped from the result. ``atol`` defaults
@@ -99,17 +106,24 @@ def simulate_reference(rig: RigParameters, friction: FrictionParameters, duratio
     rig.validate()
     friction.validate()
     _check_times(duration_s, sample_dt_s, t_start_s, rtol)
+    if not (math.isfinite(vibration_from_s) and 0.0 <= vibration_from_s < duration_s):
+        raise ParameterError(f"vibration_from_s={vibration_from_s!r} must lie in "
+                             f"[0, duration_s={duration_s!r})")
+    if vibration_from_s > 0 and friction.law == "coulomb":
+        raise ParameterError("vibration_from_s is supported for the state laws (dahl, dupont, "
+                             "lugre), not for the rigid coulomb reference")
     n_intervals = max(1, round(duration_s / sample_dt_s))
     t_grid = np.linspace(0.0, duration_s, n_intervals + 1)
     contact = _Contact(rig, friction)
+    drive = _Rig(rig, vibration_from_s)
     tolerances = _tolerances(rig, contact, rtol, atol)
     max_step_s = _max_step_s(rig, friction)
     if friction.law == "coulomb":
-        series = _simulate_coulomb(_Rig(rig), contact, t_grid, tolerances, max_step_s)
+        series = _simulate_coulomb(drive, contact, t_grid, tolerances, max_step_s)
     else:
         law: Law = getattr(contact, friction.law)
-        series = _simulate_state_law(_Rig(rig), law, t_grid, tolerances, max_step_s)
-    friction_N = _first_order_lag(series["friction_force_N"], t_grid[1] - t_grid[0],
+        series = _simulate_state_law(drive, law, t_grid, tolerances, max_step_s)
+    friction_N = first_order_lag(series["friction_force_N"], t_grid[1] - t_grid[0],
                                   friction.sensor_lag_s)
     series["friction_force_N"] = friction_N
     keep = t_grid >= t_start_s - 1e-12 * duration_s
@@ -221,7 +235,7 @@ class _Contact:
         fc = self.coulomb_level(t, x_rel, v)
         zdot = 0.0
         if fc > 0 and v != 0:
-            w = 1 - self.kt * z * math.copysign(1.0, v) / fc
+            w = 1 - self.kt * z * math.copysign(1.0, v) / self.stribeck(fc, v)
             zdot = v * _odd_power(w, self.alpha)
         return zdot, self.kt * z + self.s2 * v + self.offset_N
 
@@ -278,7 +292,7 @@ def _dupont_shape(abs_z: float, z_ba: float, z_max: float) -> float:
 class _Rig:
     """Support motion and drive force (scalar)."""
 
-    def __init__(self, rig: RigParameters):
+    def __init__(self, rig: RigParameters, vibration_from_s: float = 0.0):
         self.m = rig.mass_kg
         self.kd = rig.drive_stiffness_N_per_m
         self.hd = rig.drive_damping_N_s_per_m
@@ -287,11 +301,27 @@ class _Rig:
         # f = 0 means no vibration (the support stands still), whatever v_a says.
         self.va = rig.vibration_velocity_amplitude_m_per_s if self.w > 0 else 0.0
         self.u0 = rig.vibration_amplitude_m
+        self.t_on = vibration_from_s
+        self.ramp_s = VIBRATION_RAMP_PERIODS * 2 * math.pi / self.w if self.w > 0 else 0.0
 
     def support(self, t: float) -> tuple[float, float, float]:
         """u, u', u''."""
-        s, c = math.sin(self.w * t), math.cos(self.w * t)
-        return self.u0 * s, self.va * c, -self.va * self.w * s
+        tau = t - self.t_on
+        if tau < 0:
+            return 0.0, 0.0, 0.0
+        s, c = math.sin(self.w * tau), math.cos(self.w * tau)
+        if self.t_on == 0 or tau >= self.ramp_s:
+            return self.u0 * s, self.va * c, -self.va * self.w * s
+        # Amplitude ramp r = (1 - cos(pi tau / T)) / 2 over T = ramp_s (a shaker's build-up).
+        k = math.pi / self.ramp_s
+        r, r1, r2 = 0.5 * (1 - math.cos(k * tau)), 0.5 * k * math.sin(k * tau), \
+            0.5 * k * k * math.cos(k * tau)
+        w = self.w
+        return (self.u0 * r * s, self.u0 * (r1 * s + r * w * c),
+                self.u0 * (r2 * s + 2 * r1 * w * c - r * w * w * s))
+
+    def support_velocity(self, t: np.ndarray) -> np.ndarray:
+        return np.array([self.support(ti)[1] for ti in np.asarray(t, dtype=float).tolist()])
 
     def drive_force(self, t: float, x: float, xdot: float) -> float:
         return self.kd * (self.vd * t - x) + self.hd * (self.vd - xdot)
@@ -306,11 +336,20 @@ def _simulate_state_law(drive: _Rig, law: Law, t_grid: np.ndarray, tolerances,
         return xdot, (drive.drive_force(t, x, xdot) - force) / drive.m, zdot
 
     rtol, atol = tolerances
-    sol = solve_ivp(rhs, (0.0, t_grid[-1]), [0.0, 0.0, 0.0], method=ODE_METHOD, t_eval=t_grid,
-                    rtol=rtol, atol=atol, max_step=max_step_s)
-    if sol.status != 0:
-        raise RuntimeError(f"reference integration failed: {sol.message}")
-    x, xdot, z = sol.y
+    # One solve per stage: the support velocity jumps where the vibration starts.
+    breaks = [0.0] + ([drive.t_on] if drive.t_on > 0 else []) + [float(t_grid[-1])]
+    y0, pieces = np.zeros(3), []
+    for start, end in zip(breaks[:-1], breaks[1:]):
+        last = end == breaks[-1]
+        keep = (t_grid >= start) & ((t_grid <= end) if last else (t_grid < end))
+        t_eval = t_grid[keep] if last else np.append(t_grid[keep], end)
+        sol = solve_ivp(rhs, (start, end), y0, method=ODE_METHOD, t_eval=t_eval, rtol=rtol,
+                        atol=atol, max_step=max_step_s)
+        if sol.status != 0:
+            raise RuntimeError(f"reference integration failed: {sol.message}")
+        pieces.append(sol.y if last else sol.y[:, :-1])
+        y0 = sol.y[:, -1]
+    x, xdot, z = np.hstack(pieces)
     friction_N = np.empty_like(x)
     for i, t in enumerate(t_grid.tolist()):
         u, udot, _ = drive.support(t)
@@ -434,7 +473,7 @@ def _coulomb_series(drive: _Rig, contact: _Contact, t_grid: np.ndarray,
 
 def _series(drive: _Rig, t: np.ndarray, x: np.ndarray, xdot: np.ndarray, z: np.ndarray,
             friction_N: np.ndarray, sticking: np.ndarray) -> dict[str, np.ndarray]:
-    udot = drive.va * np.cos(drive.w * t)
+    udot = drive.support_velocity(t)
     return {
         "position_m": x, "velocity_m_per_s": xdot, "support_velocity_m_per_s": udot,
         "relative_velocity_m_per_s": xdot - udot, "deflection_m": z,
@@ -444,7 +483,7 @@ def _series(drive: _Rig, t: np.ndarray, x: np.ndarray, xdot: np.ndarray, z: np.n
     }
 
 
-def _first_order_lag(signal: np.ndarray, dt_s: float, tau_s: float) -> np.ndarray:
+def first_order_lag(signal: np.ndarray, dt_s: float, tau_s: float) -> np.ndarray:
     """tau y' + y = signal, exact for a signal linear between samples; starts at rest on it."""
     if tau_s <= 0:
         return signal
@@ -456,4 +495,13 @@ def _first_order_lag(signal: np.ndarray, dt_s: float, tau_s: float) -> np.ndarra
     return lfilter(b, den, signal, zi=zi)[0]
 
 
-__all__ = ["ReferenceResult", "simulate_reference", "ODE_METHOD"]
+def support_motion(rig: RigParameters, t_s: np.ndarray,
+                   vibration_from_s: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """The support's displacement and velocity at ``t_s``, as ``simulate_reference`` moves it."""
+    drive = _Rig(rig, vibration_from_s)
+    motion = np.array([drive.support(t)[:2] for t in np.asarray(t_s, dtype=float).tolist()])
+    return motion[:, 0], motion[:, 1]
+
+
+__all__ = ["ReferenceResult", "simulate_reference", "support_motion", "first_order_lag",
+           "ODE_METHOD"]

@@ -32,7 +32,7 @@ import numpy as np
 
 from .datasets import Dataset, DatasetMetadata, write_dataset
 from .params import FrictionParameters, ParameterError, RigParameters
-from .reference import simulate_reference
+from .reference import first_order_lag, simulate_reference, support_motion
 
 # The rig of the paper, pulled faster than in its figs. 7-12 (1 mm/s instead of 0.5 mm/s) so
 # that a 0.08 s record crosses several wavelengths of a position ripple.
@@ -104,6 +104,7 @@ class Scenario:
     noise: SensorNoise = SensorNoise()
     disturbance: PeriodicDisturbance | None = None
     seed: int = 0
+    vibration_from_s: float = 0.0  # > 0: a first stage without vibration (state laws)
 
 
 def with_effect(effect: str | None, scenario: Scenario | None = None, *,
@@ -129,14 +130,24 @@ def generate(scenario: Scenario, name: str = "synthetic", description: str = "")
     # The reference lags the friction exactly for a signal linear between its samples: with a
     # lag, sample it 10x finer (a contact transition lasts ~15 us) and keep every 10th sample.
     oversample = LAG_OVERSAMPLING if friction.sensor_lag_s > 0 else 1
-    ref = simulate_reference(rig, friction, scenario.duration_s, sample_dt_s=dt / oversample)
+    # A drive-force record's lag is the dynamometer's: the friction itself is not lagged.
+    lag_s = friction.sensor_lag_s
+    simulated = replace(friction, sensor_lag_s=0.0) if scenario.measured == "drive" else friction
+    ref = simulate_reference(rig, simulated, scenario.duration_s, sample_dt_s=dt / oversample,
+                             vibration_from_s=scenario.vibration_from_s)
+    # The dynamometer is the drive spring: it reads k_d (v_d t - x), through its lag; a damper
+    # acting in parallel (drive_damping) pushes the slider without passing through it.
+    spring = rig.drive_stiffness_N_per_m * (rig.drive_velocity_m_per_s * ref.time_s -
+                                            ref.position_m)
+    if scenario.measured == "drive" and lag_s > 0:
+        spring = first_order_lag(spring, float(ref.time_s[1] - ref.time_s[0]), lag_s)
     if oversample > 1:
         ref = _every(ref, oversample)
+        spring = spring[::oversample]
     rng = np.random.default_rng(scenario.seed)
     noise = scenario.noise
     t = ref.time_s
-    omega = 2 * math.pi * rig.vibration_frequency_Hz
-    support_position = rig.vibration_amplitude_m * np.sin(omega * t)
+    support_position, _ = support_motion(rig, t, scenario.vibration_from_s)
 
     def noisy(values: np.ndarray, sigma: float) -> np.ndarray:
         return values + sigma * rng.standard_normal(values.shape) if sigma > 0 else values
@@ -152,13 +163,8 @@ def generate(scenario: Scenario, name: str = "synthetic", description: str = "")
         force = ref.friction_force_N
         columns["friction_force_N"] = _force_sensor(force, t, scenario, rng)
     else:
-        # The dynamometer is the drive spring: it reads k_d (v_d t - x); a damper acting in
-        # parallel (drive_damping) pushes the slider without passing through it.
-        spring = rig.drive_stiffness_N_per_m * (rig.drive_velocity_m_per_s * t - ref.position_m)
-        # Newton: m a = total drive force - friction (the reference friction before any lag).
-        total_drive = ref.drive_force_N
-        friction_true = _unlagged_friction(ref, friction)
-        acceleration = (total_drive - friction_true) / rig.mass_kg
+        # Newton: m a = total drive force - friction (the reference friction is not lagged).
+        acceleration = (ref.drive_force_N - ref.friction_force_N) / rig.mass_kg
         columns["drive_force_N"] = _force_sensor(spring, t, scenario, rng)
         columns["acceleration_m_per_s2"] = noisy(acceleration, noise.acceleration_m_per_s2)
     metadata = DatasetMetadata(
@@ -176,13 +182,6 @@ def _every(ref, step: int):
     arrays = {f.name: getattr(ref, f.name)[::step] for f in fields(ref)
               if isinstance(getattr(ref, f.name), np.ndarray)}
     return replace(ref, **arrays)
-
-
-def _unlagged_friction(ref, friction: FrictionParameters) -> np.ndarray:
-    if friction.sensor_lag_s > 0:
-        raise ParameterError("a drive-force record with a lagged friction sensor is not "
-                             "generated: the lag belongs to the measured force")
-    return ref.friction_force_N
 
 
 def _force_sensor(force: np.ndarray, t: np.ndarray, scenario: Scenario,

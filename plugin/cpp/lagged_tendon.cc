@@ -1,0 +1,84 @@
+#include "lagged_tendon.h"
+
+#include <cmath>
+
+#include "element_config.h"  // RejectAttribute
+#include "plugin_util.h"
+
+namespace vibrofriction {
+namespace {
+
+constexpr char kTendon[] = "tendon";
+constexpr char kTimeConstant[] = "time_constant";
+const char* const kAttributes[] = {kTendon, kTimeConstant};
+constexpr char kPlugin[] = "vibrofriction.lagged_tendon";
+
+}  // namespace
+
+bool LaggedTendonConfig::FromModel(const mjModel* m, int instance, LaggedTendonConfig* config) {
+  LaggedTendonConfig c;
+  const char* name = mj_getPluginConfig(m, instance, kTendon);
+  if (name == nullptr || name[0] == '\0') {
+    mju_warning("%s: attribute 'tendon' is missing; name the tendon whose length it reads, "
+                "e.g. <config key=\"tendon\" value=\"drive_spring\"/>", kPlugin);
+    return false;
+  }
+  c.tendon = mj_name2id(m, mjOBJ_TENDON, name);
+  if (c.tendon < 0) {
+    mju_warning("%s: attribute 'tendon'=\"%s\" names no tendon of the model", kPlugin, name);
+    return false;
+  }
+  if (!ReadNumber(m, instance, kPlugin, kTimeConstant, 0.0, &c.time_constant)) return false;
+  if (c.time_constant < 0) {
+    return RejectAttribute(kPlugin, kTimeConstant, c.time_constant, "must be >= 0 (s)");
+  }
+  *config = c;
+  return true;
+}
+
+void LaggedTendon::Compute(const mjModel* m, mjData* d, int instance) {
+  const mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
+  const bool valid = config_.Refresh(m, instance);
+  for (int s = 0; s < m->nsensor; ++s) {
+    if (m->sensor_plugin[s] != instance) continue;
+    mjtNum* out = d->sensordata + m->sensor_adr[s];
+    if (!valid) {
+      *out = 0;
+    } else if (config_->time_constant > 0 && state[1] != 0) {
+      *out = state[0];
+    } else {
+      *out = d->ten_length[config_->tendon];
+    }
+  }
+}
+
+void LaggedTendon::Advance(const mjModel* m, mjData* d, int instance) {
+  if (!config_.Refresh(m, instance, /*later_in_step=*/true)) return;
+  mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
+  const double length = d->ten_length[config_->tendon];  // this step's (before integration)
+  if (state[1] == 0) {
+    state[0] = length;
+    state[1] = 1;
+  }
+  if (config_->time_constant > 0) {
+    state[0] = FirstOrderLagStep(state[0], length, m->opt.timestep, config_->time_constant);
+  } else {
+    state[0] = length;
+  }
+}
+
+void LaggedTendon::RegisterPlugin() {
+  mjpPlugin plugin;
+  mjp_defaultPlugin(&plugin);
+  plugin.name = kName;
+  plugin.capabilityflags |= mjPLUGIN_SENSOR;
+  plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
+  plugin.attributes = kAttributes;
+  plugin.needstage = mjSTAGE_POS;
+  plugin.nstate = +[](const mjModel* m, int instance) { return LaggedTendon::kStateSize; };
+  plugin.nsensordata = +[](const mjModel* m, int instance, int sensor_id) { return 1; };
+  SetPluginCallbacks<LaggedTendon, &LaggedTendonConfig::FromModel>(&plugin);
+  mjp_registerPlugin(&plugin);
+}
+
+}  // namespace vibrofriction
