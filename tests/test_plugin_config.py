@@ -137,6 +137,25 @@ def test_invalid_motion_attribute_is_named(instance, changes, attribute, fix):
     assert fix in message
 
 
+LAGGED_TENDON_CASES = [
+    ({"time_constant": "-1e-5"}, "time_constant", ">= 0"),
+    ({"time_constant": "8 us"}, "time_constant", "plain number"),
+    ({"tendon": None}, "tendon", "name the tendon"),
+    ({"tendon": "no_such_tendon"}, "tendon", "names no tendon"),
+]
+
+
+@pytest.mark.parametrize("changes, attribute, fix", LAGGED_TENDON_CASES,
+                         ids=[f"{c[1]}={list(c[0].values())[-1]}" for c in LAGGED_TENDON_CASES])
+def test_invalid_lagged_tendon_attribute_is_named(changes, attribute, fix):
+    spec = _spec()
+    _set_config(spec, "dynamometer", changes)
+    message = _compile_error(spec)
+    assert "vibrofriction.lagged_tendon" in message
+    assert attribute in message
+    assert fix in message
+
+
 def test_version_mismatch_names_both_versions():
     with pytest.raises(vibrofriction.MujocoVersionMismatch) as info:
         vibrofriction.check_mujoco_version(runtime="3.9.9", compiled="4.0.0")

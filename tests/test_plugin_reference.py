@@ -100,3 +100,40 @@ def test_dahl_follows_the_stribeck_curve_like_the_oracle():
     effect = rms(np.interp(run.time_s, ref_plain.time_s, ref_plain.friction_force_N) - oracle)
     assert error < 1e-3 * PAPER_FRICTION_BOUND_N
     assert effect > 100 * error
+
+
+def test_dynamometer_lag_is_the_first_order_lag_of_the_spring():
+    """The rig's lagged_tendon sensor against scipy's exact first-order lag (reference) of the
+    unlagged extension: the plugin holds each step's value (zero-order hold), the oracle
+    interpolates linearly between steps, so they differ by at most the change over half a
+    step; a time constant 1.5 times longer moves the reading ten times more."""
+    import mujoco
+    from vibrofriction.reference import first_order_lag
+    rig = RigParameters(vibration_velocity_amplitude_m_per_s=1.5e-3)
+    friction = default_friction("lugre", rig)
+    dt, tau, steps = 1e-6, 5e-5, 4000
+
+    def run(time_constant: float) -> tuple[np.ndarray, np.ndarray]:
+        spec = rig_module.build_spec(rig, friction, dt)
+        rig_module.set_plugin_config(spec, "dynamometer", {
+            "tendon": "drive_spring", "time_constant": repr(time_constant)})
+        model = spec.compile()
+        data = mujoco.MjData(model)
+        adr = model.sensor("drive_spring_extension").adr[0]
+        tendon = model.tendon("drive_spring").id
+        lagged, length = [], []
+        for _ in range(steps):
+            mujoco.mj_step(model, data)  # sensors: this step's start
+            lagged.append(data.sensordata[adr])
+            length.append(data.ten_length[tendon])
+        return np.array(lagged), np.array(length)
+
+    lagged, length = run(tau)
+    # After mj_step k: ten_length is L_k (this step's forward), sensordata the lag of L_0 ..
+    # L_{k-1} each held a step, started at rest on L_0: the oracle's value at time k dt.
+    oracle = first_order_lag(length, dt, tau)
+    half_step_change = 0.5 * np.max(np.abs(np.diff(length)))
+    error = np.max(np.abs(lagged - oracle))
+    assert error < 2 * half_step_change
+    slower, _ = run(1.5 * tau)
+    assert np.max(np.abs(slower - lagged)) > 10 * error

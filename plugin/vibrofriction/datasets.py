@@ -68,6 +68,7 @@ _NUMBER_RULES: dict[str, tuple[str, Callable[[float], bool]]] = {
     "vibration_frequency_Hz": ("> 0", lambda x: x > 0),
     "normal_force_N": (">= 0", lambda x: x >= 0),
     "sample_rate_Hz": ("> 0", lambda x: x > 0),
+    "simulation_timestep_s": ("> 0", lambda x: x > 0),
 }
 
 
@@ -83,6 +84,8 @@ class DatasetMetadata:
     normal_force_N: float | None = None
     sample_rate_Hz: float | None = None
     source: str | None = None
+    # A record made by a simulator: its timestep (identification replays it at that step).
+    simulation_timestep_s: float | None = None
 
     def __post_init__(self) -> None:
         for key in _TEXT_KEYS:

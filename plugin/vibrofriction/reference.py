@@ -53,7 +53,7 @@ STEPS_PER_PERIOD = 20
 # Width in w of the smoothing of sgn(w)|w|^alpha, alpha < 1, at saturation (F moves ~1e-6 F_c).
 DAHL_LAYER = 1e-6
 # A vibration switched on later (``vibration_from_s``) builds up over this many periods.
-VIBRATION_RAMP_PERIODS = 5
+VIBRATION_RAMP_PERIODS = 20
 # Consecutive zero-length Coulomb segments tolerated before declaring the event logic stuck.
 _MAX_EMPTY_SEGMENTS = 20
 

@@ -121,6 +121,31 @@ def with_effect(effect: str | None, scenario: Scenario | None = None, *,
     return replace(scenario, rig=rig.validate(), friction=friction.validate(), measured=measured)
 
 
+# A lab's position-only record of the rig: a dynamometer on the drive spring, a displacement
+# sensor on the slider, a vibrometer on the support; 20 ms without vibration (the spring loads,
+# the slider breaks away and slides), then 30 ms of vibration.
+LAB_COLUMNS = ("time_s", "drive_force_N", "position_m", "support_velocity_m_per_s")
+LAB_DURATION_S = 0.05
+LAB_VIBRATION_FROM_S = 0.02
+# The dynamometer's lag in a lab record: 50 us (a 3 kHz conditioning bandwidth).
+LAB_OVERRIDES = {"sensor_lag": {"sensor_lag_s": 5e-5}}
+
+
+def lab_scenario(effect: str | None,
+                 disturbance: PeriodicDisturbance | None = None) -> Scenario:
+    """The base rig measured as a lab would (``LAB_COLUMNS``), one effect hidden (or none)."""
+    base = Scenario(measured="drive", duration_s=LAB_DURATION_S,
+                    vibration_from_s=LAB_VIBRATION_FROM_S, disturbance=disturbance)
+    return with_effect(effect, base, overrides=LAB_OVERRIDES.get(effect or ""))
+
+
+def lab_record(scenario: Scenario, name: str = "lab") -> Dataset:
+    """``generate`` keeping only the columns of a position-only lab record."""
+    record = generate(scenario, name=name)
+    return Dataset(name=record.name, metadata=record.metadata,
+                   columns={c: record.columns[c] for c in LAB_COLUMNS})
+
+
 def generate(scenario: Scenario, name: str = "synthetic", description: str = "") -> Dataset:
     """Integrate the reference rig, sample it like the sensors would, return a Dataset."""
     rig, friction = scenario.rig, scenario.friction
@@ -262,6 +287,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 __all__ = ["BASE_RIG", "BASE_FRICTION", "EFFECTS", "DRIVE_FORCE_EFFECTS", "SensorNoise",
+           "LAB_COLUMNS", "lab_scenario", "lab_record",
            "PeriodicDisturbance", "Scenario", "with_effect", "generate", "main"]
 
 if __name__ == "__main__":  # pragma: no cover

@@ -52,7 +52,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"least relative drop of the training RMSE for an effect to be "
                              f"selected (default {MIN_IMPROVEMENT:g})")
     parser.add_argument("--substeps", type=int, default=None, metavar="N",
-                        help="law substeps per sample interval (default 4; midpoint rule)")
+                        help="simulation path: MuJoCo steps per sample interval (default: "
+                             "the record's simulation_timestep_s, else halved until the "
+                             "prediction converges); inverse path: law substeps per sample "
+                             "interval (default 4; midpoint rule)")
     parser.add_argument("--set", dest="overrides", action="append", default=[],
                         metavar="NAME=VALUE",
                         help="supply or override a sidecar value of DATA (and of every "
@@ -67,8 +70,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "record is a rig record, else inverse; the report says which ran "
                              "and why")
     parser.add_argument("--timestep", type=float, default=1e-6, metavar="S",
-                        help="timestep of the MuJoCo rig replay of the final model (records "
-                             "of a spring-driven rig only; default 1e-6)")
+                        help="inverse path: timestep of the MuJoCo rig replay of the final "
+                             "model (records of a spring-driven rig only; default 1e-6); the "
+                             "simulation path chooses its own (see --substeps)")
     parser.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     parser.add_argument("--json", dest="json_path", type=Path, default=None, metavar="FILE",
                         help="also write report.json to FILE")

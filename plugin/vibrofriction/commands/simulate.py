@@ -135,6 +135,7 @@ def dataset_of(run: rig_module.RigRun, name: str) -> Dataset:
         normal_force_N=rig.normal_force_N,
         sample_rate_Hz=float(f"{1.0 / run.timestep_s:.12g}"),
         source="vibrofriction simulate (MuJoCo rig, mjcf_models/rig)",
+        simulation_timestep_s=run.timestep_s,
     )
     return Dataset(name=name, columns=run.columns(), metadata=metadata)
 

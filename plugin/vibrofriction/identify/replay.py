@@ -4,23 +4,28 @@ The model is the rig scene (``mjcf_models/rig``) with the friction element, run 
 the plugin. The record's measured inputs drive it, step by step, through the two
 ``vibrofriction.motion`` actuators in ``displacement_from_ctrl`` mode:
 
-* the table follows the measured support motion: ``support_position_m``, else
-  ``support_velocity_m_per_s`` integrated (trapezoid); a cubic spline between samples;
+* the table follows the measured support motion: ``support_position_m`` (a cubic spline
+  between samples), else the exact integral of ``support_velocity_m_per_s``'s cubic spline,
+  the velocity of a vibrating support first kept in its vibration band (``vibration_band``);
 * the drive spring's far end moves at the sidecar's ``drive_velocity_m_per_s`` from where the
-  measured drive force at the first sample puts it (x_B = x + F_d / k_d).
+  measured drive force puts it (x_B = x + F_d / k_d - v_d t, averaged over the record).
 
 The prediction is what the record measured, each channel from a sensor of the scene, never from
 a differentiated measurement: ``position_m`` (slider position), ``velocity_m_per_s``,
 ``acceleration_m_per_s2``, ``drive_force_N`` (the dynamometer in the spring: -k_d (x - x_B)),
-``friction_force_N`` (the element's reported force, after its sensor lag).
+``friction_force_N`` (the element's reported force, after its sensor lag). ``sensor_lag_s`` is
+the lag of whichever force the record measures: the friction sensor's, else the dynamometer's
+(the rig's ``vibrofriction.lagged_tendon`` sensor on the drive spring).
 
 Initial state: slider position measured; velocity measured or, where not, a smoothing estimate
 (``datasets.smoothed_derivative``: an estimate of the state, not a prediction); contact
 deflection at equilibrium with the drive force at the first sample (else the friction force;
 z = F / k_t, inside the elastic range).
 
-Each sample interval is cut into ``substeps`` MuJoCo steps (default: the fewest that give at
-least ``MIN_STEPS_PER_PERIOD`` steps a vibration period). Many parameter sets run at once on
+Each sample interval is cut into ``substeps`` MuJoCo steps (default: the record's own
+``simulation_timestep_s`` when a simulator made it, else the fewest that give at least
+``MIN_STEPS_PER_PERIOD`` steps a vibration period; identification then refines the timestep
+until it converges). Many parameter sets run at once on
 ``mujoco.rollout`` threads, one model each (a finite-difference Jacobian is one call).
 """
 from __future__ import annotations
@@ -33,9 +38,10 @@ import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 from scipy.interpolate import make_interp_spline
+from scipy.signal import butter, sosfiltfilt
 
 from .. import rig as rig_module
-from ..datasets import Dataset, cumulative_trapezoid, smoothed_derivative
+from ..datasets import Dataset, smoothed_derivative
 from ..errors import InputError
 from ..params import FrictionParameters, RigParameters
 
@@ -45,6 +51,10 @@ OUTPUT_CHANNELS = ("position_m", "velocity_m_per_s", "acceleration_m_per_s2", "d
 MIN_STEPS_PER_PERIOD = 40  # at 4 kHz: 6.25 us; the study's timestep rule uses ~50
 MAX_SUBSTEPS = 16
 NOISE_FLOOR_OF_RANGE = 1e-4
+# A measured support velocity is kept at the vibration frequency and its first harmonics, each
+# within this fraction of the frequency (an amplitude ramp over 20 periods fits in it).
+VIBRATION_HARMONICS = 3
+ENVELOPE_BANDWIDTH = 0.25
 _CASES_PER_ROLLOUT = 16
 # Unit normal load when the record gives none: the fitted coefficient is then the level in N.
 UNIT_NORMAL_FORCE_N = 1.0
@@ -85,11 +95,23 @@ class RigReplay:
     def channels(self) -> tuple[str, ...]:
         return tuple(self.measured)
 
+    @property
+    def lagged_sensor(self) -> str:
+        """The sensor whose lag ``sensor_lag_s`` is: the friction sensor's when the record
+        measures friction, else the dynamometer's (``drive_force_N``)."""
+        return "friction" if "friction_force_N" in self.measured else "dynamometer"
+
     def model(self, rig: RigParameters, friction: FrictionParameters) -> mujoco.MjModel:
         """The rig scene with these values, its motions driven by ctrl."""
+        lag_s = friction.sensor_lag_s
+        if self.lagged_sensor == "dynamometer":
+            friction = replace(friction, sensor_lag_s=0.0)
         spec = rig_module.build_spec(rig, friction, self.timestep_s)
         for name in ("table_shaker", "drive_end_motion"):
             rig_module.set_plugin_config(spec, name, {"displacement_from_ctrl": "true"})
+        if self.lagged_sensor == "dynamometer":
+            rig_module.set_plugin_config(spec, "dynamometer", {
+                "tendon": "drive_spring", "time_constant": repr(float(lag_s))})
         return spec.compile()
 
     def initial_state(self, model: mujoco.MjModel, friction: FrictionParameters,
@@ -218,6 +240,10 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
     frequency = meta.vibration_frequency_Hz
     support_velocity = np.asarray(dataset.support_velocity_m_per_s, dtype=float)
     vibrating = bool(frequency) and np.ptp(support_velocity) > 0
+    simulated = meta.simulation_timestep_s
+    if substeps is None and simulated and abs(sample_dt / simulated -
+                                              round(sample_dt / simulated)) < 1e-6:
+        substeps = max(1, round(sample_dt / simulated))  # as the record was simulated
     if substeps is None:
         substeps = 1
         if vibrating:
@@ -227,19 +253,26 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
         raise InputError(f"substeps {substeps} must lie in 1..64")
     substeps = int(substeps)
     timestep = sample_dt / substeps
-    # Support displacement at every step's end (the motion actuator's ctrl).
-    if "support_position_m" in columns:
-        support_position = np.asarray(columns["support_position_m"], dtype=float)
-    elif "support_velocity_m_per_s" in columns:
-        support_position = cumulative_trapezoid(support_velocity, t)
-    else:
-        support_position = np.zeros_like(t)
+    # Support displacement at every step's end (the motion actuator's ctrl): the measured
+    # position's cubic spline, else the exact integral of the measured velocity's (trapezoid
+    # sums lose ~(w dt)^2/12 of the amplitude: 0.5 % at 25 samples a period).
     nstep = (len(t) - 1) * substeps + 1
     step_ends = t[0] + timestep * np.arange(1, nstep + 1)
-    if substeps == 1:
-        table = np.append(support_position[1:], 2 * support_position[-1] - support_position[-2])
-    else:
+    if "support_position_m" in columns:
+        support_position = np.asarray(columns["support_position_m"], dtype=float)
         table = make_interp_spline(t, support_position, k=3)(step_ends, extrapolate=True)
+    elif "support_velocity_m_per_s" in columns:
+        if vibrating:
+            # Only the vibration is kept: a vibrometer's broadband noise would otherwise shake
+            # the contact like a real dither (20 um/s at 100 kHz makes a LuGre slider creep by
+            # ~10 nm in 20 ms) and its integral would drift as a random walk.
+            support_velocity = vibration_band(support_velocity, sample_dt, frequency)
+        integral = make_interp_spline(t, support_velocity, k=3).antiderivative()
+        support_position = integral(t) - integral(t[0])
+        table = integral(step_ends, extrapolate=True) - integral(t[0])
+    else:
+        support_position = np.zeros_like(t)
+        table = np.zeros(nstep)
     position = np.asarray(dataset.position_m, dtype=float)
     velocity0 = float(dataset.velocity_m_per_s[0]) if "velocity_m_per_s" in columns else \
         float(smoothed_derivative(position[:32], t[:32])[0])
@@ -251,8 +284,14 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
         friction0 = float(columns["friction_force_N"][0])
     else:
         friction0 = 0.0
-    drive0 = float(columns["drive_force_N"][0]) if "drive_force_N" in columns else 0.0
-    drive_end0 = float(position[0]) + drive0 / k_d
+    if "drive_force_N" in columns:
+        # The dynamometer is the drive spring: x + F_d / k_d - v_d t is the far end's start at
+        # every sample; their mean has sqrt(n) less noise than the first sample alone.
+        ends = position + np.asarray(columns["drive_force_N"], dtype=float) / k_d - \
+            v_d * (t - t[0])
+        drive_end0 = float(np.mean(ends))
+    else:
+        drive_end0 = float(position[0])
     drive_end = drive_end0 + v_d * (step_ends - t[0])
     control = np.zeros((nstep, 4))
     control[:, 0], control[:, 1] = table, drive_end  # actuator order of rig.xml
@@ -270,6 +309,43 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
         initial_support_position_m=float(support_position[0]),
         initial_support_velocity_m_per_s=float(support_velocity[0]),
         initial_drive_end_m=drive_end0, initial_friction_N=friction0, vibrating=vibrating)
+
+
+def vibration_band(velocity: np.ndarray, dt: float, frequency_Hz: float) -> np.ndarray:
+    """The part of a vibrating support's measured velocity at the vibration frequency and its
+    harmonics (up to ``VIBRATION_HARMONICS``, below 0.8 of the Nyquist frequency): each
+    demodulated, its complex envelope low-passed (zero phase) at ``ENVELOPE_BANDWIDTH`` of the
+    frequency, and modulated back. Keeps a shaker's slow amplitude changes and distortion;
+    drops the sensor's broadband noise and any slow drift. Both ends are extended by the
+    harmonics fitted to their last two periods, so the filter settles outside the record."""
+    n = len(velocity)
+    harmonics = [h for h in range(1, VIBRATION_HARMONICS + 1)
+                 if h * frequency_Hz <= 0.8 * 0.5 / dt]
+    pad = int(10 / (ENVELOPE_BANDWIDTH * frequency_Hz * dt))  # ten filter time constants
+    t = dt * np.arange(-pad, n + pad)
+    window = max(4 * len(harmonics) + 1, int(round(2 / (frequency_Hz * dt))))
+
+    def basis(times: np.ndarray) -> np.ndarray:
+        w = 2 * math.pi * frequency_Hz * times
+        return np.column_stack([f(h * w) for h in harmonics for f in (np.cos, np.sin)])
+
+    extended = np.empty(len(t))
+    extended[pad:pad + n] = velocity
+    for edge, outside in ((slice(0, window), slice(0, pad)),
+                          (slice(n - window, n), slice(pad + n, len(t)))):
+        inside = t[pad:pad + n][edge]
+        coef, *_ = np.linalg.lstsq(basis(inside), velocity[edge], rcond=None)
+        extended[outside] = basis(t[outside]) @ coef
+    sos = butter(4, ENVELOPE_BANDWIDTH * frequency_Hz, btype="lowpass", fs=1.0 / dt,
+                 output="sos")
+    out = np.zeros(len(t))
+    for h in harmonics:
+        carrier = np.exp(1j * 2 * math.pi * h * frequency_Hz * t)
+        baseband = extended * np.conj(carrier)
+        envelope = sosfiltfilt(sos, baseband.real, padlen=0) + \
+            1j * sosfiltfilt(sos, baseband.imag, padlen=0)
+        out += 2.0 * np.real(envelope * carrier)
+    return out[pad:pad + n]
 
 
 def noise_sd(values: np.ndarray) -> float:

@@ -162,8 +162,6 @@ def identify(train: Dataset, validation: Sequence[Dataset] = (), *, law: str = "
 
 def _not_applicable(record: Record, law: str, declared: Sequence[str]) -> dict[str, str]:
     out: dict[str, str] = {}
-    if law == "dahl":
-        out["stribeck"] = "the Dahl law has no Stribeck curve (use lugre, dupont or coulomb)"
     if not record.vibrating:
         out["normal_force_modulation"] = ("the support does not vibrate (no support velocity "
                                           "or vibration_frequency_Hz)")

@@ -8,24 +8,38 @@ here.
 
 Cost. Each channel's residual is divided by its estimated white-noise sd (``replay.noise_sd``),
 so channels in different units weigh by how well they are measured; the weighted residuals of
-all channels are stacked. Least squares (scipy, trust-region reflective) over the internal
-coordinates of ``model.Model``; the Jacobian by forward differences, all its columns in one
+all channels are stacked. After the baseline fit each channel's sd becomes at least its
+residual's rms (maximum likelihood for unknown channel variances: a channel the model cannot
+follow to its sensor's resolution, e.g. a position driven by an integrated noisy velocity, does
+not dominate). Least squares (scipy, trust-region reflective) over the internal coordinates of
+``model.Model``; the Jacobian by forward differences, all its columns in one
 ``mujoco.rollout`` call on parallel threads. Single shooting over the whole record (the drive
 spring keeps the rig's position error bounded).
 
-Selection (forward, as the inverse path): a candidate effect is justified when
+Timestep. Halved until halving it again moves the prediction less than
+``TIMESTEP_TOLERANCE`` noise sd (rms), at the best start of the scan and again at the fitted
+baseline (a fit can move to stiff contacts the step no longer resolves, and exploit its error).
+
+Baseline. Starts from a scan of the level and the contact's deflection (then the shape); when
+the record begins with the support standing still, a fit to that stage alone is one more start.
+
+Selection (forward, as the inverse path). Each round screens every candidate linearized at the
+round's model (in round 1 at each local optimum of the baseline): the residual projected on the
+model's and the effect's sensitivities. The ``SCREENED_FITS`` best with a linearized dBIC below
+0 are fitted; the ``CONVERGED_LEADERS`` best justified ones are then fitted to convergence before
+the choice. A candidate effect is justified when
 
 1. dBIC = n_eff ln((RSS_E + F)/(RSS_M + F)) + (k_E - k_M) ln(n_eff) < ``BIC_THRESHOLD``, with
-   n_eff from the residual's autocorrelation and F the simulator's own error: the squared
-   weighted difference between the baseline replayed at the chosen timestep and at half of it,
-   so that no effect is selected for explaining discretization error;
+   n_eff from the autocorrelation of the candidate's residual and F the simulator's own
+   error: the squared weighted difference between the baseline replayed at the chosen
+   timestep and at half of it, so that no effect is selected for explaining discretization
+   error;
 2. the weighted RMSE (with F) falls by at least ``MIN_IMPROVEMENT``;
 3. held-out records' RMSE falls on average;
 4. a periodic effect beats an additive tone at its dominant frequency (same dBIC test).
 """
 from __future__ import annotations
 
-import itertools
 import math
 import time
 from dataclasses import dataclass, field, replace
@@ -40,19 +54,30 @@ from ..params import LAWS, FrictionParameters, RigParameters, lugre_default_bris
 from .analysis import effective_samples, spectral_peaks
 from .fit import Metrics, _metrics
 from .model import EFFECT_INTERNALS, EFFECTS, Model, Scales
-from .replay import Replayer, RigReplay, prepare_replay
+from .replay import MAX_SUBSTEPS, Replayer, RigReplay, prepare_replay
 from .selection import BIC_THRESHOLD, MIN_IMPROVEMENT
 
 ProgressFn = Callable[[str], None]
 _TOL = 1e-8
 _FD_STEP = 1e-4  # forward-difference step in the internal coordinates (O(1) scaled)
+# The timestep is halved until halving it again moves the prediction less than this (rms, in
+# units of each channel's noise sd).
+TIMESTEP_TOLERANCE = 0.3
 BASELINE_EVALUATIONS = 60
+# The support "stands still" while its speed stays below this fraction of its peak.
+STILL_FRACTION = 0.1
 BASELINE_STARTS = 3
 CANDIDATE_EVALUATIONS = 12
+SCREENED_FITS = 3
+CONVERGED_LEADERS = 2  # justified candidates whose fits are converged before a round's choice
+_STEP_FRACTIONS = (1.0, 0.5, 0.25, 0.1)  # candidates fitted in full per round (the best linearized ones)
 _LEVEL_SCAN = (1.0, 1.6, 2.5, 4.0, 6.0)  # mu F_N over the drive-force level (vibration lowers it)
 _DEFLECTION_SCAN_M = np.logspace(-10, -5, 16)  # characteristic deflection mu F_N / k_t
 _BREAKAWAY_SCAN = (0.3, 0.6, 0.85)  # Dupont
 _STRIBECK_SCAN = np.logspace(-1.5, 0.5, 6)  # v_s over the rms sliding velocity
+_STRIBECK_RATIOS = (1.2, 1.5, 2.0)
+_STRIBECK_STARTS = 3  # grid points a Stribeck candidate is fitted from
+_OTHER_STARTS = "further starts"  # key of a start dict: more starts for the same candidate
 
 
 @dataclass(frozen=True, eq=False)
@@ -90,6 +115,8 @@ class SimCandidate:
     justified: bool
     reason: str
     seconds: float
+    screen_delta_bic: float | None = None  # linearized at the round's model
+    fitted: bool = True  # False: screened out, ``fit`` is the round's model
 
 
 @dataclass(frozen=True, eq=False)
@@ -124,8 +151,21 @@ class SimulationProblem:
         self.held_runners = [Replayer(r, threads) for r in self.validation]
         self.primary = "friction_force_N" if "friction_force_N" in train.measured else \
             "drive_force_N"
+        self.noise = dict(train.noise)  # channel -> sd the residual is divided by
         self.weights = {c: 1.0 / train.noise[c] for c in train.channels}
         self.floor = 0.0
+
+    def reweight(self, fit: SimFit) -> None:
+        """Maximum-likelihood channel weights: each channel's sd becomes at least the rms of
+        its residual in ``fit``. A channel that the model cannot follow to its white noise
+        (the integral of a noisy measured input, the simulator's own error) then weighs by
+        how well it is actually predicted, not by its sensor's resolution."""
+        n = self.train.n
+        for j, channel in enumerate(self.train.channels):
+            raw = fit.residual[j * n:(j + 1) * n] / self.weights[channel]
+            self.noise[channel] = max(self.noise[channel],
+                                      math.sqrt(float(np.mean(raw ** 2))))
+            self.weights[channel] = 1.0 / self.noise[channel]
 
     def close(self) -> None:
         for runner in (self.runner, *self.held_runners):
@@ -176,23 +216,26 @@ class SimulationProblem:
             return cache[key]
 
         def jac(q: np.ndarray) -> np.ndarray:
-            r0 = fun(q)
-            steps = []
-            for j in range(len(q)):
-                h = _FD_STEP * max(1.0, abs(q[j]))
-                steps.append(h if q[j] + h <= hi[j] else -h)
-            shifted = []
-            for j, h in enumerate(steps):
-                qj = np.array(q, dtype=float)
-                qj[j] += h
-                shifted.append(qj)
-            columns = self.residuals(model, shifted)
-            return np.column_stack([(r - r0) / h for r, h in zip(columns, steps)])
+            return self.jacobian(model, q, fun(q))
 
         result = least_squares(fun, q0, jac=jac, bounds=(lo, hi), method="trf",
                                x_scale="jac", ftol=_TOL, xtol=_TOL, gtol=_TOL,
                                max_nfev=max_nfev)
         return self.result(model, result.x, result.nfev)
+
+    def jacobian(self, model: Model, q: np.ndarray, r0: np.ndarray) -> np.ndarray:
+        """Forward-difference Jacobian of the weighted residual, all columns in one rollout."""
+        _, hi = model.bounds()
+        shifted, steps = [], []
+        for j in range(len(q)):
+            h = _FD_STEP * max(1.0, abs(q[j]))
+            h = h if q[j] + h <= hi[j] else -h
+            qj = np.array(q, dtype=float)
+            qj[j] += h
+            shifted.append(qj)
+            steps.append(h)
+        columns = self.residuals(model, shifted)
+        return np.column_stack([(r - r0) / h for r, h in zip(columns, steps)])
 
     def result(self, model: Model, q: np.ndarray, nfev: int = 0) -> SimFit:
         values = model.values(q)
@@ -240,15 +283,72 @@ def identify_by_simulation(train: Dataset, validation: Sequence[Dataset] = (), *
             raise InputError(f"{h.name}: held-out record lacks {', '.join(sorted(missing))}, "
                              f"which the training record {replay.name} measures")
     problem = SimulationProblem(replay, held, law, threads)
+    refine = substeps is None and not train.metadata.simulation_timestep_s
     try:
-        return _identify(problem, law, declared, min_improvement, bic_threshold, say, started)
+        scan = None
+        if refine:
+            problem, scan = _converged_timestep(problem, train, validation, law, declared, say)
+        while True:
+            still = _still_stage(train, problem.train.substeps)
+            try:
+                return _identify(problem, law, declared, min_improvement, bic_threshold, say,
+                                 started, scan, still, refine)
+            except _Unresolved as unresolved:
+                # The baseline went where the timestep does not resolve it: halve it and
+                # fit again from the baseline's local optima (and the scan's starts).
+                finer = prepare_replay(train, substeps=2 * problem.train.substeps)
+                held = [prepare_replay(d, substeps=finer.substeps) for d in validation]
+                problem.close()
+                problem = SimulationProblem(finer, held, law, threads)
+                scan = (unresolved.scales, unresolved.starts)
     finally:
         problem.close()
 
 
+class _Unresolved(Exception):
+    """The baseline fit is not resolved by the timestep (raised to refine it)."""
+
+    def __init__(self, scales: Scales, starts: list[dict[str, float]]):
+        super().__init__("timestep too coarse for the baseline")
+        self.scales, self.starts = scales, starts
+
+
+def _converged_timestep(problem: SimulationProblem, train: Dataset,
+                        validation: Sequence[Dataset], law: str, declared: Sequence[str],
+                        say: ProgressFn) -> tuple[SimulationProblem, tuple]:
+    """Halve the MuJoCo timestep until the best start of the scan changes by less than
+    ``TIMESTEP_TOLERANCE`` noise sd (rms over the channels) when it is halved again: the
+    simulator's error then stays below the record's noise (or MAX_SUBSTEPS is reached).
+    Returns the problem at that timestep and the scan (scales, starts) it was checked with."""
+    fit_mass = not problem.train.mass_known
+    declared = tuple(e for e in EFFECTS if e in declared and e not in
+                     _not_applicable(problem.train, law, declared))
+    scales, starts = _start(problem, law, fit_mass, declared)
+    model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law))
+    case = problem.case(model, model.values(model.internal(starts[0])))
+    while True:
+        replay = problem.train
+        finer = prepare_replay(train, substeps=2 * replay.substeps)
+        with Replayer(finer, problem.runner.threads) as runner:
+            fine = runner.run([case])[0]
+        coarse = problem.runner.run([case])[0]
+        change = problem.weighted(fine) - problem.weighted(coarse)
+        rms = math.sqrt(float(change @ change) / len(change))
+        if rms <= TIMESTEP_TOLERANCE or 2 * replay.substeps > MAX_SUBSTEPS:
+            say(f"timestep {replay.timestep_s:.4g} s: halving it changes the prediction by "
+                f"{rms:.3g} noise sd (rms)")
+            return problem, (scales, starts)
+        say(f"timestep {replay.timestep_s:.4g} s: halving it changes the prediction by "
+            f"{rms:.3g} noise sd (rms); halving")
+        problem.close()
+        held = [prepare_replay(d, substeps=finer.substeps) for d in validation]
+        problem = SimulationProblem(finer, held, law, problem.runner.threads)
+
+
 def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
               min_improvement: float, bic_threshold: float, say: ProgressFn,
-              started: float) -> SimIdentification:
+              started: float, scan: tuple | None = None,
+              still: RigReplay | None = None, refine: bool = False) -> SimIdentification:
     replay = problem.train
     fit_mass = not replay.mass_known
     say(f"{replay.name}: {replay.n} samples, measured {', '.join(replay.channels)}; "
@@ -257,15 +357,37 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
         (f", {len(problem.validation)} held-out record(s)" if problem.validation else ""))
     skipped = _not_applicable(replay, law, declared)
     declared = tuple(e for e in EFFECTS if e in declared and e not in skipped)
-    scales, starts = _start(problem, law, fit_mass, declared)
+    scales, starts = scan or _start(problem, law, fit_mass, declared)
     model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law))
     say(f"baseline: fitting {model.k} parameters ({', '.join(model.names)}) from the "
         f"{len(starts)} best start(s) of a scan")
     # Several starts: a record that measures little of the contact (position and drive force
     # only) has more than one basin in the contact stiffness.
-    baseline = min((problem.fit(model, start, BASELINE_EVALUATIONS) for start in starts),
+    if still is not None:
+        # The stage before the vibration shows the contact alone (pre-sliding, breakaway):
+        # a fit to it alone starts the whole record's fit too.
+        stage = SimulationProblem(still, [], law, problem.runner.threads)
+        try:
+            fit = stage.fit(model, starts[0], BASELINE_EVALUATIONS)
+        finally:
+            stage.close()
+        starts = [*starts, model.internal_values(fit.q)]
+        say(f"baseline: the {still.n} samples before the vibration starts give one more start")
+    local = sorted((problem.fit(model, start, BASELINE_EVALUATIONS) for start in starts),
                    key=lambda fit: fit.rss)
+    baseline = local[0]
+    if len(replay.channels) > 1:
+        problem.reweight(baseline)
+        baseline = problem.fit(model, model.internal_values(baseline.q), BASELINE_EVALUATIONS)
+        local = [baseline] + [problem.result(model, fit.q) for fit in local[1:]]
+        say("baseline: channel sd from its residual: " + ", ".join(
+            f"{c} {problem.noise[c]:.3g}" for c in replay.channels))
     problem.floor = _numerical_floor(problem, baseline)
+    floor_rms = math.sqrt(problem.floor / len(baseline.residual))
+    if refine and floor_rms > TIMESTEP_TOLERANCE and 2 * replay.substeps <= MAX_SUBSTEPS:
+        say(f"baseline: halving the timestep changes its prediction by {floor_rms:.3g} noise "
+            f"sd (rms); halving it and fitting again")
+        raise _Unresolved(scales, [model.internal_values(f.q) for f in local])
     say(f"baseline: {problem.primary} relerr {baseline.train.relerr_pct:.3g} %; simulator "
         f"error floor {math.sqrt(problem.floor / len(baseline.residual)):.3g} (weighted rms)")
     current = baseline
@@ -275,25 +397,66 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
     selected: list[str] = []
     while remaining:
         index = len(rounds) + 1
-        say(f"round {index}: fitting {len(remaining)} candidate(s): {', '.join(remaining)}")
+        say(f"round {index}: screening {len(remaining)} candidate(s): {', '.join(remaining)}")
+        # Round 1 screens at every local optimum of the baseline: an effect missing from the
+        # model can pull the best baseline into another basin than the one it belongs to.
+        screens = _screen(problem, current, local if index == 1 else [current], remaining,
+                          scales)
+        ranked = sorted(remaining, key=lambda e: screens[e][1])
+        fitted = [e for e in ranked if screens[e][1] < 0][:SCREENED_FITS]
         evaluated = []
-        for effect in remaining:
-            c = _candidate(problem, current, effect, scales, index, min_improvement,
-                           bic_threshold)
+        for effect in ranked:
+            start, screen_dbic, seconds, at = screens[effect]
+            if effect in fitted:
+                c = _candidate(problem, current, at, effect, scales, index, min_improvement,
+                               bic_threshold, start, screen_dbic, seconds)
+            else:
+                why = (f"linearized dBIC {screen_dbic:.1f} not below 0" if screen_dbic >= 0
+                       else f"linearized dBIC {screen_dbic:.1f}: not among the "
+                            f"{SCREENED_FITS} best")
+                c = SimCandidate(effect=effect, fit=current, delta_bic=0.0, train_drop=0.0,
+                                 validation_log_ratio=None, tone_delta_bic=None,
+                                 tone_frequency_Hz=None, round=index, justified=False,
+                                 reason=f"screened out ({why})", seconds=seconds,
+                                 screen_delta_bic=screen_dbic, fitted=False)
             candidates[effect] = c
             evaluated.append(c)
-            say(f"  {c.effect:<24s} dBIC {c.delta_bic:10.1f}  {problem.primary} relerr "
+            say(f"  {c.effect:<24s} screen {screen_dbic:8.1f}  " + (
+                f"dBIC {c.delta_bic:8.1f}  {problem.primary} relerr "
                 f"{c.fit.train.relerr_pct:.4g} % ({100 * c.train_drop:+.1f} %)  "
+                if c.fitted else "") +
                 f"[{c.seconds:.1f} s]  {'justified' if c.justified else 'no: ' + c.reason}")
+        # The leading candidates' fits (a few evaluations each) are converged before the
+        # choice: a strongly nonlinear effect (a Stribeck peak's stick-slip) may still be far
+        # from its optimum where a flexible imitation (a ripple) already looks better.
+        leaders = sorted((c for c in evaluated if c.justified), key=lambda c: c.delta_bic)
+        for c in leaders[:CONVERGED_LEADERS]:
+            begun = time.monotonic() - c.seconds
+            refit = problem.fit(c.fit.model, c.fit.model.internal_values(c.fit.q),
+                                BASELINE_EVALUATIONS)
+            if refit.rss < c.fit.rss:
+                c = _judge(problem, current, refit, c.effect, index, min_improvement,
+                           bic_threshold, c.screen_delta_bic, begun)
+                evaluated[evaluated.index(candidates[c.effect])] = c
+                candidates[c.effect] = c
+                say(f"  {c.effect:<24s} converged: dBIC {c.delta_bic:8.1f}  "
+                    f"{problem.primary} relerr {c.fit.train.relerr_pct:.4g} %")
         rounds.append(evaluated)
         justified = [c for c in evaluated if c.justified]
         if not justified:
             break
         best = min(justified, key=lambda c: c.delta_bic)
         selected.append(best.effect)
-        current = best.fit
         remaining.remove(best.effect)
-        say(f"round {index}: selected {best.effect}")
+        current = best.fit
+        if best.effect not in {c.effect for c in leaders[:CONVERGED_LEADERS]}:
+            # the next round's candidates, a few evaluations each, must not be credited
+            # with the rest of this fit's descent
+            refit = problem.fit(best.fit.model, best.fit.model.internal_values(best.fit.q),
+                                BASELINE_EVALUATIONS)
+            current = refit if refit.rss < best.fit.rss else best.fit
+        say(f"round {index}: selected {best.effect} ({problem.primary} relerr "
+            f"{current.train.relerr_pct:.4g} % after refitting)")
     say("selected: " + (", ".join(selected) if selected else "nothing"))
     peaks = _residual_peaks(problem, current)
     return SimIdentification(
@@ -304,20 +467,30 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
         settings={"method": "simulation", "substeps": replay.substeps,
                   "timestep_s": replay.timestep_s, "min_improvement": min_improvement,
                   "bic_threshold": bic_threshold, "fit_mass": fit_mass,
-                  "noise_sd": dict(replay.noise)},
+                  "noise_sd": dict(problem.noise)},
         simulations=problem.simulations, seconds=time.monotonic() - started)
+
+
+def _still_stage(dataset: Dataset, substeps: int) -> RigReplay | None:
+    """The record's first stage before the support starts to vibrate, as a replay of its own
+    (None when there is none of at least a fifth of the record)."""
+    velocity = np.abs(np.asarray(dataset.support_velocity_m_per_s, dtype=float))
+    if not dataset.metadata.vibration_frequency_Hz or not np.any(velocity > 0):
+        return None
+    moving = np.flatnonzero(velocity > STILL_FRACTION * velocity.max())
+    first = int(moving[0]) if len(moving) else len(velocity)
+    if first < max(64, len(velocity) // 5) or first > 0.9 * len(velocity):
+        return None
+    part = Dataset(name=f"{dataset.name} (before the vibration)", metadata=dataset.metadata,
+                   columns={c: np.asarray(v)[:first] for c, v in dataset.columns.items()})
+    return prepare_replay(part, substeps=substeps)
 
 
 def _not_applicable(replay: RigReplay, law: str, declared: Sequence[str]) -> dict[str, str]:
     out: dict[str, str] = {}
-    if law == "dahl":
-        out["stribeck"] = "the Dahl element has no Stribeck curve yet (use lugre or dupont)"
     if not replay.vibrating:
         out["normal_force_modulation"] = ("the support does not vibrate (no support motion or "
                                           "no vibration_frequency_Hz)")
-    if "friction_force_N" not in replay.measured:
-        out["sensor_lag"] = ("the plugin lags its reported friction force; this record does "
-                             "not measure friction directly (a dynamometer lag is not modelled)")
     for effect in declared:
         out.pop(effect, None)
     return out
@@ -327,12 +500,14 @@ def _not_applicable(replay: RigReplay, law: str, declared: Sequence[str]) -> dic
 
 def _start(problem: SimulationProblem, law: str, fit_mass: bool,
            declared: Sequence[str] = ()) -> tuple[Scales, list[dict[str, float]]]:
-    """Scales and the best starts of a scan (level, stiffness, shape) simulated at once."""
+    """Scales and the best starts of a scan simulated in batches: the level and the
+    characteristic deflection together (the record's drive force ties them), then the
+    shape (Dupont's breakaway, a declared Stribeck curve) around the best of those."""
     replay = problem.train
     normal = replay.rig.normal_force_N
     if "friction_force_N" in replay.measured:
         level = float(np.quantile(np.abs(replay.measured["friction_force_N"]), 0.95))
-        levels = [level * r for r in (0.9, 1.0, 1.1)] if "stribeck" in declared else [level]
+        levels = [level]
     else:
         drive = replay.measured["drive_force_N"]
         level = float(np.mean(np.abs(drive[len(drive) // 2:])))
@@ -344,20 +519,12 @@ def _start(problem: SimulationProblem, law: str, fit_mass: bool,
                     normal_force_N=normal, dt_s=dt,
                     travel_m=float(np.ptp(replay.measured.get("position_m", [0.0]))) or 1e-3)
     model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law))
-    trials = []
-    deflections = _DEFLECTION_SCAN_M if law != "coulomb" else [None]
-    breakaways = _BREAKAWAY_SCAN if law == "dupont" else (0.7,)
-    # A declared Stribeck curve: at static_ratio 1 its velocity has no gradient, so scan both.
-    stribeck = [{}]
-    if "stribeck" in declared:
-        stribeck = [{"static_ratio": ratio, "stribeck_velocity_m_per_s": r * scales.velocity_m_per_s}
-                    for ratio in (1.2, 1.6) for r in (0.3, 1.0, 3.0)]
-    for lv, deflection, breakaway, curve in itertools.product(levels, deflections, breakaways,
-                                                              stribeck):
+
+    def start(lv: float, deflection: float | None, shape: Mapping[str, float]) -> dict:
         # (with a Stribeck curve the level scanned is its peak, mu F_N static_ratio)
-        values = {"friction_coefficient": lv / normal / curve.get("static_ratio", 1.0),
-                  "alpha": 1.0, "breakaway_ratio": breakaway, "bristle_damping_N_s_per_m": 0.0,
-                  **curve}
+        values = {"friction_coefficient": lv / normal / shape.get("static_ratio", 1.0),
+                  "alpha": 1.0, "breakaway_ratio": 0.7, "bristle_damping_N_s_per_m": 0.0,
+                  **shape}
         if deflection is not None:
             k_t = lv / deflection
             values["contact_stiffness_N_per_m"] = k_t
@@ -366,11 +533,29 @@ def _start(problem: SimulationProblem, law: str, fit_mass: bool,
                     k_t, replay.rig.mass_kg)
         if fit_mass:
             values["mass_kg"] = replay.rig.mass_kg
-        trials.append(values)
-    internal = [model.internal(_internal_names(model, v)) for v in trials]
-    residuals = problem.residuals(model, internal)
-    order = np.argsort([float(r @ r) for r in residuals])
-    return scales, [_internal_names(model, trials[i]) for i in order[:BASELINE_STARTS]]
+        return values
+
+    def best(trials: list[tuple], count: int) -> list[tuple]:
+        values = [start(*trial) for trial in trials]
+        residuals = problem.residuals(model, [model.internal(_internal_names(model, v))
+                                              for v in values])
+        order = np.argsort([float(r @ r) for r in residuals])
+        return [trials[i] for i in order[:count]]
+
+    deflections = _DEFLECTION_SCAN_M if law != "coulomb" else [None]
+    stage = best([(lv, x, {}) for lv in levels for x in deflections], BASELINE_STARTS)
+    shapes = []
+    if law == "dupont":
+        shapes = [{"breakaway_ratio": b} for b in _BREAKAWAY_SCAN]
+    if "stribeck" in declared:
+        # At static_ratio 1 the Stribeck velocity has no gradient: scan both.
+        curves = [{"static_ratio": ratio, "stribeck_velocity_m_per_s": r * scales.velocity_m_per_s}
+                  for ratio in (1.2, 1.6) for r in (0.3, 1.0, 3.0)]
+        shapes = [{**a, **c} for a in (shapes or [{}]) for c in curves]
+    if shapes:
+        stage = best([(lv, x, shape) for lv, x, _ in stage for shape in shapes],
+                     BASELINE_STARTS)
+    return scales, [_internal_names(model, start(*trial)) for trial in stage]
 
 
 def _internal_names(model: Model, values: Mapping[str, float]) -> dict[str, float]:
@@ -406,15 +591,75 @@ def _first_control(replay: RigReplay) -> np.ndarray:
 
 # ----------------------------------------------------------------------------- candidates
 
-def _candidate(problem: SimulationProblem, current: SimFit, effect: str, scales: Scales,
-               index: int, min_improvement: float, bic_threshold: float) -> SimCandidate:
+def _screen(problem: SimulationProblem, current: SimFit, bases: Sequence[SimFit],
+            effects: Sequence[str], scales: Scales) -> dict[str, tuple]:
+    """Each candidate linearized at each of ``bases`` (fits of the current model):
+    effect -> (start, linearized dBIC, seconds, base). The residual is projected on the base's
+    Jacobian columns together with the effect's signatures, so the gain is what the effect
+    adds once the others adjust (a score test, in the spirit of Rao's); only candidates it
+    favours are fitted in full. The dBIC is against the current fit, linearized too."""
     started = time.monotonic()
-    model = current.model.extended(effect, scales)
-    start = dict(current.model.internal_values(current.q))
-    start.update(_effect_start(problem, current, effect, model))
-    fit = problem.fit(model, start, CANDIDATE_EVALUATIONS)
-    floor = problem.floor
     n_eff = max(current.n_eff, 2.0)
+    jacobians = [problem.jacobian(b.model, b.q, b.residual) for b in bases]
+    r0 = current.residual
+    jac0 = jacobians[bases.index(current)] if current in bases else \
+        problem.jacobian(current.model, current.q, r0)
+    coef, *_ = np.linalg.lstsq(jac0, -r0, rcond=None)
+    rss0 = float(np.sum((r0 + jac0 @ coef) ** 2))
+    base_seconds = time.monotonic() - started
+    out: dict[str, tuple] = {}
+    for effect in effects:
+        begun = time.monotonic()
+        for base, jacobian in zip(bases, jacobians):
+            model = base.model.extended(effect, scales)
+            start = dict(base.model.internal_values(base.q))
+            values, rss, others = _effect_start(problem, base, effect, model, jacobian)
+            start.update(values)
+            start = {**start, _OTHER_STARTS: [{**start, **o} for o in others]}
+            k_effect = model.k - base.model.k
+            dbic = n_eff * math.log((rss + problem.floor) / (rss0 + problem.floor)) + \
+                k_effect * math.log(n_eff)
+            if effect not in out or dbic < out[effect][1]:
+                out[effect] = (start, float(dbic), 0.0, base)
+        start, dbic, _, base = out[effect]
+        out[effect] = (start, dbic, time.monotonic() - begun + base_seconds / len(effects),
+                       base)
+    return out
+
+
+def _candidate(problem: SimulationProblem, current: SimFit, base: SimFit, effect: str,
+               scales: Scales, index: int, min_improvement: float, bic_threshold: float,
+               start: Mapping[str, float], screen_dbic: float,
+               screen_seconds: float) -> SimCandidate:
+    """Fit ``effect`` from ``start`` (linearized at ``base``) and judge it against
+    ``current``."""
+    started = time.monotonic() - screen_seconds
+    model = current.model.extended(effect, scales)
+    # The linearized step can overshoot (a Stribeck peak, a modulation): the best of a few
+    # fractions of it, simulated in one batch, starts the fit.
+    q_now = model.internal({**base.model.internal_values(base.q),
+                            **{n: start[n] for n in EFFECT_INTERNALS[effect] if n in start},
+                            **{n: _off(n, model) for n in _linear_names(effect)}})
+    others = start.get(_OTHER_STARTS, [])
+    start = {k: v for k, v in start.items() if k != _OTHER_STARTS}
+    q_step = model.internal(start) - q_now
+    trials = [q_now + fraction * q_step for fraction in _STEP_FRACTIONS]
+    residuals = problem.residuals(model, trials)
+    best = int(np.argmin([float(r @ r) for r in residuals]))
+    fit = min((problem.fit(model, s, CANDIDATE_EVALUATIONS) for s in
+               [model.internal_values(trials[best]), *others]), key=lambda f: f.rss)
+    return _judge(problem, current, fit, effect, index, min_improvement, bic_threshold,
+                  screen_dbic, started)
+
+
+def _judge(problem: SimulationProblem, current: SimFit, fit: SimFit, effect: str, index: int,
+           min_improvement: float, bic_threshold: float, screen_dbic: float | None,
+           started: float) -> SimCandidate:
+    """The verdict on ``fit`` (the current model plus ``effect``) against ``current``.
+    n_eff is that of the model under test: the residual's correlation stands for the noise's,
+    and a missing effect (a periodic misfit) must not pass for correlated noise."""
+    floor = problem.floor
+    n_eff = max(fit.n_eff, 2.0)
     delta_bic = n_eff * math.log((fit.rss + floor) / (current.rss + floor)) + \
         (fit.k - current.k) * math.log(n_eff)
     drop = 1.0 - math.sqrt((fit.rss + floor) / (current.rss + floor))
@@ -441,7 +686,17 @@ def _candidate(problem: SimulationProblem, current: SimFit, effect: str, scales:
     return SimCandidate(effect=effect, fit=fit, delta_bic=delta_bic, train_drop=drop,
                         validation_log_ratio=val_ratio, tone_delta_bic=tone_dbic,
                         tone_frequency_Hz=tone_frequency, round=index, justified=not reasons,
-                        reason=reason, seconds=time.monotonic() - started)
+                        reason=reason, seconds=time.monotonic() - started,
+                        screen_delta_bic=screen_dbic)
+
+
+def _linear_names(effect: str) -> list[str]:
+    """An effect's coordinates that its start projects on (the others are scanned)."""
+    if effect == "stribeck":
+        return ["static_ratio"]
+    if effect == "position_ripple":
+        return ["ripple_cos", "ripple_sin"]
+    return list(EFFECT_INTERNALS[effect])
 
 
 def _off(name: str, model: Model) -> float:
@@ -452,24 +707,26 @@ def _off(name: str, model: Model) -> float:
 
 
 def _effect_start(problem: SimulationProblem, current: SimFit, effect: str,
-                  model: Model) -> dict[str, float]:
+                  model: Model, base: np.ndarray
+                  ) -> tuple[dict[str, float], float, list[dict[str, float]]]:
     """Start values of an effect: minus the residual projected on the effect's signatures
     (the change of the weighted prediction when a coordinate moves a little from "off"),
-    all signatures of a scan simulated in one batch."""
-    base = dict(current.model.internal_values(current.q))
+    all signatures of a scan simulated in one batch) together with the current model's
+    Jacobian columns ``base``. Returns the values, the linearized weighted RSS and further
+    starts worth a fit of their own (Stribeck's next best grid points)."""
+    now = dict(current.model.internal_values(current.q))
     params = {p.name: p for p in model.params}
-    names = list(EFFECT_INTERNALS[effect])
+    names = _linear_names(effect)
+    others: list[dict[str, float]] = []
     scans: list[dict[str, float]] = [{}]
     if effect == "stribeck":
-        names = ["static_ratio"]
         v_rms = params["stribeck_velocity_m_per_s"].scale
         scans = [{"stribeck_velocity_m_per_s": r * v_rms} for r in _STRIBECK_SCAN]
     elif effect == "position_ripple":
-        names = ["ripple_cos", "ripple_sin"]
         scans = [{"position_ripple_wavelength_m": _ripple_wavelength(problem, current)}]
     batch = []
     for fixed in scans:
-        off = {**base, **fixed, **{n: _off(n, model) for n in names}}
+        off = {**now, **fixed, **{n: _off(n, model) for n in names}}
         batch.append(off)
         for n in names:
             trial = dict(off)
@@ -482,17 +739,37 @@ def _effect_start(problem: SimulationProblem, current: SimFit, effect: str,
         r0 = residuals[i * stride]
         columns = np.column_stack([(residuals[i * stride + 1 + j] - r0) /
                                    (0.1 * params[n].scale) for j, n in enumerate(names)])
-        coef, *_ = np.linalg.lstsq(columns, -r0, rcond=None)
-        rss = float(np.sum((r0 + columns @ coef) ** 2))
+        both = np.hstack([base, columns])
+        coef, *_ = np.linalg.lstsq(both, -r0, rcond=None)
+        rss = float(np.sum((r0 + both @ coef) ** 2))
         if rss < best_rss:
-            values = {n: _off(n, model) + float(c) for n, c in zip(names, coef)}
-            best, best_rss = {**fixed, **values}, rss
+            values = {n: _off(n, model) + float(c)
+                      for n, c in zip(names, coef[base.shape[1]:])}
+            # the current model's parameters move as the projection says, too
+            lo, hi = current.model.bounds()
+            moved = current.model.internal_values(
+                np.clip(current.q + coef[:base.shape[1]], lo, hi))
+            best, best_rss = {**moved, **fixed, **values}, rss
+    if effect == "stribeck":
+        # A Stribeck peak can turn sliding into stick-slip: far from linear. The curve is also
+        # simulated directly on a grid, the other values as they are.
+        grid = [{**now, "static_ratio": ratio, "stribeck_velocity_m_per_s": r * v_rms}
+                for ratio in _STRIBECK_RATIOS for r in _STRIBECK_SCAN]
+        residuals = problem.residuals(model, [model.internal(v) for v in grid])
+        rss = [float(r @ r) for r in residuals]
+        order = np.argsort(rss)
+        i = int(order[0])
+        if rss[i] < best_rss:
+            best, best_rss = grid[i], rss[i]
+        # stick-slip makes the cost rugged: the next best grid points start fits too
+        others = [grid[int(j)] for j in order[:_STRIBECK_STARTS] if grid[int(j)] is not best]
     for n in list(best):
         p = params[n]
-        best[n] = min(max(best[n], p.lower), p.upper)
+        if p.name in names:
+            best[n] = min(max(best[n], p.lower), p.upper)
     if effect == "stribeck":
         best["static_ratio"] = min(max(best["static_ratio"], 1.0 + 1e-3), 3.0)
-    return best
+    return best, best_rss, others
 
 
 def _ripple_wavelength(problem: SimulationProblem, current: SimFit) -> float:

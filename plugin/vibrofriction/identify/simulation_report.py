@@ -57,7 +57,9 @@ def report_json(result: SimIdentification) -> dict[str, Any]:
         candidates.append({"effect": effect, "parameters": parameters(result, c.fit),
                            "train": c.fit.train.as_dict(False),
                            "validation": [m.as_dict(True) for m in c.fit.validation],
-                           "criterion": _finite(c.delta_bic), "justified": c.justified,
+                           "criterion": _finite(c.delta_bic) if c.fitted else None,
+                           "screen_criterion": _finite(c.screen_delta_bic),
+                           "fitted": c.fitted, "justified": c.justified,
                            "reason": c.reason})
     return {
         "law": result.law,
@@ -138,15 +140,20 @@ def report_markdown(result: SimIdentification) -> str:
               "nothing. Justified when dBIC < "
               f"{r.settings['bic_threshold']:g}, the weighted RMSE falls by at least "
               f"{100 * r.settings['min_improvement']:g} %, held-out error falls, and a "
-              "periodic effect beats an additive tone.", "",
-              "| round | effect | dBIC | weighted RMSE change | verdict |", "|---|---|---|---|---|"]
+              "periodic effect beats an additive tone. Each round first screens every "
+              "candidate linearized at the round's model (the residual projected on the "
+              "model's and the effect's sensitivities); the best ones with a linearized dBIC "
+              "below 0 are fitted in full.", "",
+              "| round | effect | linearized dBIC | dBIC | weighted RMSE change | verdict |",
+              "|---|---|---|---|---|---|"]
     for round_ in r.rounds:
         for c in round_:
-            lines.append(f"| {c.round} | {c.effect} | {c.delta_bic:.1f} | "
-                         f"{-100 * c.train_drop:+.2f} % | "
+            fitted = f"{c.delta_bic:.1f} | {-100 * c.train_drop:+.2f} %" if c.fitted else \
+                "– | –"
+            lines.append(f"| {c.round} | {c.effect} | {c.screen_delta_bic:.1f} | {fitted} | "
                          f"{'justified' if c.justified else 'no: ' + c.reason} |")
     for effect, why in r.skipped.items():
-        lines.append(f"| – | {effect} | – | – | not a candidate: {why} |")
+        lines.append(f"| – | {effect} | – | – | – | not a candidate: {why} |")
     lines += ["", "## Final model", "", "| parameter | value |", "|---|---|"]
     for name, value in parameters(r, r.final).items():
         if value is not None:

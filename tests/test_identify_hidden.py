@@ -1,0 +1,67 @@
+"""Hidden effects in position-only lab records, found by simulation (issue 17, item 3).
+
+Each record is made by the scipy reference (`vibrofriction.synthetic`, never the plugin) and
+measures what a lab measures on the rig: `time_s, drive_force_N, position_m,
+support_velocity_m_per_s` at 100 kHz with realistic sensor noise. A first stage without
+vibration (20 ms: the spring loads, the slider breaks away and slides) and then 30 ms of
+vibration at 4 kHz, v_a = 20 mm/s. Identified with LuGre and nothing declared, each of the 8
+vocabulary effects hidden alone is the one selection with its value within 5 %; a clean record
+selects nothing; a tone outside the vocabulary selects nothing and shows in the residual peaks.
+"""
+from __future__ import annotations
+
+import functools
+import math
+
+import pytest
+
+from vibrofriction import synthetic
+from vibrofriction.identify.simulation import identify_by_simulation
+
+# The value checked for each effect (the phases are checked in radians, below).
+VALUES = {
+    "viscous": ("viscous_N_s_per_m",),
+    "stribeck": ("static_ratio", "stribeck_velocity_m_per_s"),
+    "asymmetry": ("asymmetry",),
+    "position_ripple": ("position_ripple", "position_ripple_wavelength_m"),
+    "normal_force_modulation": ("normal_force_modulation",),
+    "drive_damping": ("drive_damping_N_s_per_m",),
+    "sensor_lag": ("sensor_lag_s",),
+    "force_offset": ("force_offset_N",),
+}
+TONE = synthetic.PeriodicDisturbance(frequency_Hz=1234.0, amplitude_N=0.2, phase_rad=0.3)
+
+
+@functools.lru_cache(maxsize=None)
+def _identified(effect: str | None, tone: bool = False):
+    scenario = synthetic.lab_scenario(effect, TONE if tone else None)
+    record = synthetic.lab_record(scenario, name=f"hidden-{effect}")
+    return scenario, identify_by_simulation(record, law="lugre")
+
+
+@pytest.mark.parametrize("effect", list(VALUES))
+def test_a_hidden_effect_is_the_one_selection(effect) -> None:
+    scenario, result = _identified(effect)
+    assert result.train.channels == ("position_m", "drive_force_N")
+    assert result.selected == [effect]
+    for name in VALUES[effect]:
+        owner = scenario.rig if hasattr(scenario.rig, name) else scenario.friction
+        assert result.final.values[name] == pytest.approx(getattr(owner, name), rel=0.05), name
+    if effect == "position_ripple":  # (a modulation's phase is weakly seen without friction)
+        error = math.remainder(result.final.values["position_ripple_phase_rad"] -
+                               scenario.friction.position_ripple_phase_rad, 2 * math.pi)
+        assert abs(error) < 0.1
+
+
+def test_a_clean_record_selects_nothing() -> None:
+    scenario, result = _identified(None)
+    assert result.selected == []
+    assert result.final.values["friction_coefficient"] == pytest.approx(
+        scenario.friction.friction_coefficient, rel=0.01)
+
+
+def test_a_tone_outside_the_vocabulary_selects_nothing_and_is_a_residual_peak() -> None:
+    _, result = _identified(None, tone=True)
+    assert result.selected == []
+    assert any(abs(f - TONE.frequency_Hz) < 0.02 * TONE.frequency_Hz
+               for f in result.residual_peaks_Hz), result.residual_peaks_Hz
