@@ -151,7 +151,7 @@ void FrictionElement::Advance(const mjModel* m, mjData* d, int instance) {
     // Exact first-order lag over the step, driven by this step's force.
     mjtNum* lagged = state + config_->lag_state;
     const double friction = -d->actuator_force[config_->output];
-    *lagged = FirstOrderLagStep(*lagged, friction, dt, config_->sensor_lag);
+    *lagged = FirstOrderLagStep(*lagged, friction, friction, dt, config_->sensor_lag);
   }
   if (!HasDeflection(config_->law.law)) return;
   // z update with the velocity *after* this step's integration (see header).

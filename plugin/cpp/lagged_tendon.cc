@@ -42,29 +42,23 @@ void LaggedTendon::Compute(const mjModel* m, mjData* d, int instance) {
   for (int s = 0; s < m->nsensor; ++s) {
     if (m->sensor_plugin[s] != instance) continue;
     mjtNum* out = d->sensordata + m->sensor_adr[s];
-    if (!valid) {
-      *out = 0;
-    } else if (config_->time_constant > 0 && state[1] != 0) {
-      *out = state[0];
-    } else {
-      *out = d->ten_length[config_->tendon];
-    }
+    *out = valid ? Reading(m, d, state) : 0.0;
   }
+}
+
+double LaggedTendon::Reading(const mjModel* m, const mjData* d, const mjtNum* state) const {
+  const double length = d->ten_length[config_->tendon];
+  if (config_->time_constant <= 0 || state[2] == 0) return length;
+  return FirstOrderLagStep(state[0], state[1], length, m->opt.timestep, config_->time_constant);
 }
 
 void LaggedTendon::Advance(const mjModel* m, mjData* d, int instance) {
   if (!config_.Refresh(m, instance, /*later_in_step=*/true)) return;
   mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
-  const double length = d->ten_length[config_->tendon];  // this step's (before integration)
-  if (state[1] == 0) {
-    state[0] = length;
-    state[1] = 1;
-  }
-  if (config_->time_constant > 0) {
-    state[0] = FirstOrderLagStep(state[0], length, m->opt.timestep, config_->time_constant);
-  } else {
-    state[0] = length;
-  }
+  // This step's reading (ten_length is still the step's: integration does not update it).
+  state[0] = Reading(m, d, state);
+  state[1] = d->ten_length[config_->tendon];
+  state[2] = 1;
 }
 
 void LaggedTendon::RegisterPlugin() {

@@ -3,8 +3,8 @@
 // A dynamometer built around a spring (the rig's drive spring) reads its extension through its
 // signal conditioning; identification fits that lag when the record measures the drive force.
 // The lag starts at rest on the length at the first step (like a sensor switched on long before
-// the record starts) and, as the friction element's sensor_lag, is advanced exactly over each
-// step by that step's value.
+// the record starts); it is exact for a length linear between steps (first-order hold), so the
+// reading tends to the length itself as tau -> 0.
 //   <sensor>
 //     <plugin name="dynamometer_extension" plugin="vibrofriction.lagged_tendon">
 //       <config key="tendon" value="drive_spring"/>
@@ -32,13 +32,16 @@ struct LaggedTendonConfig {
 class LaggedTendon {
  public:
   static constexpr char kName[] = "vibrofriction.lagged_tendon";
-  static constexpr int kStateSize = 2;  // lagged length, started (0 before the first step)
+  // lagged length, the length at the last step, started (0 before the first step)
+  static constexpr int kStateSize = 3;
   explicit LaggedTendon(CachedConfig<LaggedTendonConfig> config) : config_(std::move(config)) {}
   static void RegisterPlugin();
   void Compute(const mjModel* m, mjData* d, int instance);
   void Advance(const mjModel* m, mjData* d, int instance);
 
  private:
+  // The reading at this step: the lag advanced from the last step to this step's length.
+  double Reading(const mjModel* m, const mjData* d, const mjtNum* state) const;
   CachedConfig<LaggedTendonConfig> config_;
 };
 

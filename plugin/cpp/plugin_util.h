@@ -139,10 +139,16 @@ void SetPluginCallbacks(mjpPlugin* plugin) {
   }
 }
 
-// One step of the first-order lag tau y' + y = input, exact for an input held over the step
-// (the friction element's sensor_lag and the lagged_tendon sensor share it).
-inline double FirstOrderLagStep(double lagged, double input, double dt, double tau) {
-  return lagged + (input - lagged) * -std::expm1(-dt / tau);
+// One step dt of the first-order lag tau y' + y = u, exact for u linear from previous_input to
+// input over the step (first-order hold; previous_input == input: u held over the step). The
+// friction element's sensor_lag (its force is held over a step) and the lagged_tendon sensor
+// (a length, continuous) share it; tau -> 0 gives y = input.
+inline double FirstOrderLagStep(double lagged, double previous_input, double input, double dt,
+                                double tau) {
+  const double one_minus_a = -std::expm1(-dt / tau);
+  const double a = 1.0 - one_minus_a;
+  const double ramp = a - tau / dt * one_minus_a;  // weight of the input's change over the step
+  return a * lagged + (one_minus_a + ramp) * input - ramp * previous_input;
 }
 
 // The single actuator backed by `instance`, or -1 (with a warning) if none or several.

@@ -336,7 +336,7 @@ def _simulate_state_law(drive: _Rig, law: Law, t_grid: np.ndarray, tolerances,
         return xdot, (drive.drive_force(t, x, xdot) - force) / drive.m, zdot
 
     rtol, atol = tolerances
-    # One solve per stage: the support velocity jumps where the vibration starts.
+    # One solve per stage: the support's acceleration has a kink where the vibration starts.
     breaks = [0.0] + ([drive.t_on] if drive.t_on > 0 else []) + [float(t_grid[-1])]
     y0, pieces = np.zeros(3), []
     for start, end in zip(breaks[:-1], breaks[1:]):

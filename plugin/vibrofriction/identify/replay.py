@@ -82,6 +82,7 @@ class RigReplay:
     initial_drive_end_m: float
     initial_friction_N: float
     vibrating: bool
+    timestep_from_record: bool = False  # substeps from the sidecar's simulation_timestep_s
 
     @property
     def n(self) -> int:
@@ -240,10 +241,19 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
     frequency = meta.vibration_frequency_Hz
     support_velocity = np.asarray(dataset.support_velocity_m_per_s, dtype=float)
     vibrating = bool(frequency) and np.ptp(support_velocity) > 0
+    if vibrating and frequency * sample_dt > 0.4:
+        raise InputError(f"{where}: vibration_frequency_Hz {frequency:g} is above 0.8 of the "
+                         f"Nyquist frequency of the record ({0.5 / sample_dt:g} Hz): the "
+                         "support's motion is not resolved; record it faster")
     simulated = meta.simulation_timestep_s
-    if substeps is None and simulated and abs(sample_dt / simulated -
-                                              round(sample_dt / simulated)) < 1e-6:
-        substeps = max(1, round(sample_dt / simulated))  # as the record was simulated
+    from_record = False
+    if substeps is None and simulated:
+        ratio = sample_dt / simulated
+        if abs(ratio - round(ratio)) > 1e-6 or not 1 <= round(ratio) <= 64:
+            raise InputError(f"{where}: simulation_timestep_s {simulated:g} must divide the "
+                             f"sample interval {sample_dt:g} s into 1 to 64 steps; fix the "
+                             "sidecar or pass --substeps")
+        substeps, from_record = round(ratio), True  # replayed as the record was simulated
     if substeps is None:
         substeps = 1
         if vibrating:
@@ -308,7 +318,8 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
         initial_position_m=float(position[0]), initial_velocity_m_per_s=velocity0,
         initial_support_position_m=float(support_position[0]),
         initial_support_velocity_m_per_s=float(support_velocity[0]),
-        initial_drive_end_m=drive_end0, initial_friction_N=friction0, vibrating=vibrating)
+        initial_drive_end_m=drive_end0, initial_friction_N=friction0, vibrating=vibrating,
+        timestep_from_record=from_record)
 
 
 def vibration_band(velocity: np.ndarray, dt: float, frequency_Hz: float) -> np.ndarray:
@@ -316,8 +327,8 @@ def vibration_band(velocity: np.ndarray, dt: float, frequency_Hz: float) -> np.n
     harmonics (up to ``VIBRATION_HARMONICS``, below 0.8 of the Nyquist frequency): each
     demodulated, its complex envelope low-passed (zero phase) at ``ENVELOPE_BANDWIDTH`` of the
     frequency, and modulated back. Keeps a shaker's slow amplitude changes and distortion;
-    drops the sensor's broadband noise and any slow drift. Both ends are extended by the
-    harmonics fitted to their last two periods, so the filter settles outside the record."""
+    drops the sensor's broadband noise and any slow drift. Each end is extended by the
+    harmonics fitted to its two nearest periods, so the filter settles outside the record."""
     n = len(velocity)
     harmonics = [h for h in range(1, VIBRATION_HARMONICS + 1)
                  if h * frequency_Hz <= 0.8 * 0.5 / dt]

@@ -27,10 +27,11 @@ Selection (forward, as the inverse path). Each round screens every candidate lin
 round's model (in round 1 at each local optimum of the baseline): the residual projected on the
 model's and the effect's sensitivities. The ``SCREENED_FITS`` best with a linearized dBIC below
 0 are fitted; the ``CONVERGED_LEADERS`` best justified ones are then fitted to convergence before
-the choice. A candidate effect is justified when
+the choice. After each choice a backward step drops an earlier effect that the same test no
+longer justifies. A candidate effect is justified when
 
 1. dBIC = n_eff ln((RSS_E + F)/(RSS_M + F)) + (k_E - k_M) ln(n_eff) < ``BIC_THRESHOLD``, with
-   n_eff from the autocorrelation of the candidate's residual and F the simulator's own
+   n_eff from the autocorrelation of the current model's residual and F the simulator's own
    error: the squared weighted difference between the baseline replayed at the chosen
    timestep and at half of it, so that no effect is selected for explaining discretization
    error;
@@ -62,7 +63,7 @@ _TOL = 1e-8
 _FD_STEP = 1e-4  # forward-difference step in the internal coordinates (O(1) scaled)
 # The timestep is halved until halving it again moves the prediction less than this (rms, in
 # units of each channel's noise sd).
-TIMESTEP_TOLERANCE = 0.3
+TIMESTEP_TOLERANCE = 0.1
 BASELINE_EVALUATIONS = 60
 # The support "stands still" while its speed stays below this fraction of its peak.
 STILL_FRACTION = 0.1
@@ -70,7 +71,7 @@ BASELINE_STARTS = 3
 CANDIDATE_EVALUATIONS = 12
 SCREENED_FITS = 3
 CONVERGED_LEADERS = 2  # justified candidates whose fits are converged before a round's choice
-_STEP_FRACTIONS = (1.0, 0.5, 0.25, 0.1)  # candidates fitted in full per round (the best linearized ones)
+_STEP_FRACTIONS = (1.0, 0.5, 0.25, 0.1)  # of a candidate's linearized step, tried at once  # candidates fitted in full per round (the best linearized ones)
 _LEVEL_SCAN = (1.0, 1.6, 2.5, 4.0, 6.0)  # mu F_N over the drive-force level (vibration lowers it)
 _DEFLECTION_SCAN_M = np.logspace(-10, -5, 16)  # characteristic deflection mu F_N / k_t
 _BREAKAWAY_SCAN = (0.3, 0.6, 0.85)  # Dupont
@@ -136,6 +137,7 @@ class SimIdentification:
     residual_peaks_Hz: list[float]
     settings: dict = field(default_factory=dict)
     simulations: int = 0
+    dropped: dict[str, str] = field(default_factory=dict)  # effect -> why (backward step)
     seconds: float = 0.0
 
 
@@ -282,12 +284,22 @@ def identify_by_simulation(train: Dataset, validation: Sequence[Dataset] = (), *
         if missing:
             raise InputError(f"{h.name}: held-out record lacks {', '.join(sorted(missing))}, "
                              f"which the training record {replay.name} measures")
-    problem = SimulationProblem(replay, held, law, threads)
-    refine = substeps is None and not train.metadata.simulation_timestep_s
+    refine = substeps is None and not replay.timestep_from_record
+    problems: list[SimulationProblem] = []  # every one made is closed, whatever happens
+
+    def problem_at(steps: int) -> SimulationProblem:
+        at = prepare_replay(train, substeps=steps)
+        problems.append(SimulationProblem(at, [prepare_replay(d, substeps=steps)
+                                               for d in validation], law, threads))
+        return problems[-1]
+
     try:
+        problem = problem_at(replay.substeps)
         scan = None
         if refine:
-            problem, scan = _converged_timestep(problem, train, validation, law, declared, say)
+            steps, scan = _converged_timestep(problem, train, law, declared, say)
+            if steps != replay.substeps:
+                problem = problem_at(steps)
         while True:
             still = _still_stage(train, problem.train.substeps)
             try:
@@ -295,14 +307,12 @@ def identify_by_simulation(train: Dataset, validation: Sequence[Dataset] = (), *
                                  started, scan, still, refine)
             except _Unresolved as unresolved:
                 # The baseline went where the timestep does not resolve it: halve it and
-                # fit again from the baseline's local optima (and the scan's starts).
-                finer = prepare_replay(train, substeps=2 * problem.train.substeps)
-                held = [prepare_replay(d, substeps=finer.substeps) for d in validation]
-                problem.close()
-                problem = SimulationProblem(finer, held, law, threads)
+                # fit again from the baseline's local optima.
+                problem = problem_at(2 * problem.train.substeps)
                 scan = (unresolved.scales, unresolved.starts)
     finally:
-        problem.close()
+        for made in problems:
+            made.close()
 
 
 class _Unresolved(Exception):
@@ -313,36 +323,32 @@ class _Unresolved(Exception):
         self.scales, self.starts = scales, starts
 
 
-def _converged_timestep(problem: SimulationProblem, train: Dataset,
-                        validation: Sequence[Dataset], law: str, declared: Sequence[str],
-                        say: ProgressFn) -> tuple[SimulationProblem, tuple]:
-    """Halve the MuJoCo timestep until the best start of the scan changes by less than
-    ``TIMESTEP_TOLERANCE`` noise sd (rms over the channels) when it is halved again: the
-    simulator's error then stays below the record's noise (or MAX_SUBSTEPS is reached).
-    Returns the problem at that timestep and the scan (scales, starts) it was checked with."""
+def _converged_timestep(problem: SimulationProblem, train: Dataset, law: str,
+                        declared: Sequence[str], say: ProgressFn) -> tuple[int, tuple]:
+    """Steps a sample from halving the MuJoCo timestep until the best start of the scan changes
+    by less than ``TIMESTEP_TOLERANCE`` noise sd (rms over the channels) when it is halved
+    again: the simulator's error then stays below the record's noise (or ``MAX_SUBSTEPS`` is
+    reached). Returns them and the scan (scales, starts) they were checked with."""
     fit_mass = not problem.train.mass_known
-    declared = tuple(e for e in EFFECTS if e in declared and e not in
-                     _not_applicable(problem.train, law, declared))
+    declared = tuple(e for e in EFFECTS if e in declared)
     scales, starts = _start(problem, law, fit_mass, declared)
     model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law))
     case = problem.case(model, model.values(model.internal(starts[0])))
-    while True:
-        replay = problem.train
-        finer = prepare_replay(train, substeps=2 * replay.substeps)
+    steps = problem.train.substeps
+    with Replayer(problem.train, problem.runner.threads) as runner:
+        coarse = runner.run([case])[0]
+    while 2 * steps <= MAX_SUBSTEPS:
+        finer = prepare_replay(train, substeps=2 * steps)
         with Replayer(finer, problem.runner.threads) as runner:
             fine = runner.run([case])[0]
-        coarse = problem.runner.run([case])[0]
         change = problem.weighted(fine) - problem.weighted(coarse)
         rms = math.sqrt(float(change @ change) / len(change))
-        if rms <= TIMESTEP_TOLERANCE or 2 * replay.substeps > MAX_SUBSTEPS:
-            say(f"timestep {replay.timestep_s:.4g} s: halving it changes the prediction by "
-                f"{rms:.3g} noise sd (rms)")
-            return problem, (scales, starts)
-        say(f"timestep {replay.timestep_s:.4g} s: halving it changes the prediction by "
-            f"{rms:.3g} noise sd (rms); halving")
-        problem.close()
-        held = [prepare_replay(d, substeps=finer.substeps) for d in validation]
-        problem = SimulationProblem(finer, held, law, problem.runner.threads)
+        say(f"timestep {finer.timestep_s * 2:.4g} s: halving it changes the prediction by "
+            f"{rms:.3g} noise sd (rms)" + ("" if rms <= TIMESTEP_TOLERANCE else "; halving"))
+        if rms <= TIMESTEP_TOLERANCE:
+            break
+        steps, coarse = 2 * steps, fine
+    return steps, (scales, starts)
 
 
 def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
@@ -379,19 +385,24 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
     if len(replay.channels) > 1:
         problem.reweight(baseline)
         baseline = problem.fit(model, model.internal_values(baseline.q), BASELINE_EVALUATIONS)
-        local = [baseline] + [problem.result(model, fit.q) for fit in local[1:]]
+        local = sorted([baseline] + [problem.result(model, fit.q) for fit in local[1:]],
+                       key=lambda fit: fit.rss)
+        baseline = local[0]
         say("baseline: channel sd from its residual: " + ", ".join(
             f"{c} {problem.noise[c]:.3g}" for c in replay.channels))
-    problem.floor = _numerical_floor(problem, baseline)
-    floor_rms = math.sqrt(problem.floor / len(baseline.residual))
-    if refine and floor_rms > TIMESTEP_TOLERANCE and 2 * replay.substeps <= MAX_SUBSTEPS:
-        say(f"baseline: halving the timestep changes its prediction by {floor_rms:.3g} noise "
+    change = _halved_change(problem, baseline)
+    problem.floor = float(np.sum((change * _stacked(problem, problem.weights)) ** 2))
+    white = change * _stacked(problem, {c: 1.0 / replay.noise[c] for c in replay.channels})
+    white_rms = math.sqrt(float(white @ white) / len(white))
+    if refine and white_rms > TIMESTEP_TOLERANCE and 2 * replay.substeps <= MAX_SUBSTEPS:
+        say(f"baseline: halving the timestep changes its prediction by {white_rms:.3g} noise "
             f"sd (rms); halving it and fitting again")
         raise _Unresolved(scales, [model.internal_values(f.q) for f in local])
     say(f"baseline: {problem.primary} relerr {baseline.train.relerr_pct:.3g} %; simulator "
         f"error floor {math.sqrt(problem.floor / len(baseline.residual)):.3g} (weighted rms)")
     current = baseline
     remaining = [e for e in EFFECTS if e not in declared and e not in skipped]
+    dropped: dict[str, str] = {}
     candidates: dict[str, SimCandidate] = {}
     rounds: list[list[SimCandidate]] = []
     selected: list[str] = []
@@ -454,15 +465,35 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
             # with the rest of this fit's descent
             refit = problem.fit(best.fit.model, best.fit.model.internal_values(best.fit.q),
                                 BASELINE_EVALUATIONS)
-            current = refit if refit.rss < best.fit.rss else best.fit
+            if refit.rss < best.fit.rss:
+                current = refit
+                candidates[best.effect] = replace(best, fit=refit)
         say(f"round {index}: selected {best.effect} ({problem.primary} relerr "
             f"{current.train.relerr_pct:.4g} % after refitting)")
+        # Backward step: an effect chosen earlier as a stand-in for this one (an offset for a
+        # modulation's mean) is dropped when the model without it is as good by the same test.
+        for earlier in [e for e in selected[:-1] if e not in declared]:
+            reduced = Model.build(law, [e for e in current.model.effects if e != earlier],
+                                  fit_mass, scales, current.model.base)
+            start = {k: v for k, v in current.model.internal_values(current.q).items()
+                     if k in reduced.names}
+            without = problem.fit(reduced, start, BASELINE_EVALUATIONS)
+            n_eff = max(without.n_eff, 2.0)
+            keep_dbic = n_eff * math.log((current.rss + problem.floor) /
+                                         (without.rss + problem.floor)) + \
+                (current.k - reduced.k) * math.log(n_eff)
+            if not keep_dbic < bic_threshold:
+                selected.remove(earlier)  # (and not a candidate again: no cycles)
+                current = without
+                dropped[earlier] = f"dropped in round {index}: keeping it, dBIC {keep_dbic:.1f}"
+                say(f"round {index}: dropped {earlier} (keeping it: dBIC {keep_dbic:.1f})")
     say("selected: " + (", ".join(selected) if selected else "nothing"))
     peaks = _residual_peaks(problem, current)
     return SimIdentification(
         law=law, declared=declared, train=replay, validation=problem.validation,
         primary=problem.primary, baseline=baseline, final=current, candidates=candidates,
-        rounds=rounds, selected=selected, skipped=skipped, numerical_floor=problem.floor,
+        rounds=rounds, selected=selected, skipped=skipped, dropped=dropped,
+        numerical_floor=problem.floor,
         residual_peaks_Hz=peaks,
         settings={"method": "simulation", "substeps": replay.substeps,
                   "timestep_s": replay.timestep_s, "min_improvement": min_improvement,
@@ -563,15 +594,19 @@ def _internal_names(model: Model, values: Mapping[str, float]) -> dict[str, floa
     return {k: v for k, v in values.items() if k in model.names}
 
 
-def _numerical_floor(problem: SimulationProblem, fit: SimFit) -> float:
-    """Weighted squared difference between the fit at its timestep and at half of it."""
+def _halved_change(problem: SimulationProblem, fit: SimFit) -> np.ndarray:
+    """How the fit's prediction (channels stacked, in their units) changes at half the step."""
     replay = problem.train
     finer = replace(replay, substeps=2 * replay.substeps, timestep_s=replay.timestep_s / 2,
                     control=_refined_control(replay))
     with Replayer(finer, problem.runner.threads) as runner:
         out = runner.run([problem.case(fit.model, fit.values)])[0]
-    difference = problem.weighted(out, replay) - fit.residual
-    return float(difference @ difference)
+    return np.concatenate([out[c] - fit.predicted[c] for c in replay.channels])
+
+
+def _stacked(problem: SimulationProblem, weights: Mapping[str, float]) -> np.ndarray:
+    n = problem.train.n
+    return np.concatenate([np.full(n, weights[c]) for c in problem.train.channels])
 
 
 def _refined_control(replay: RigReplay) -> np.ndarray:
@@ -656,10 +691,11 @@ def _judge(problem: SimulationProblem, current: SimFit, fit: SimFit, effect: str
            min_improvement: float, bic_threshold: float, screen_dbic: float | None,
            started: float) -> SimCandidate:
     """The verdict on ``fit`` (the current model plus ``effect``) against ``current``.
-    n_eff is that of the model under test: the residual's correlation stands for the noise's,
-    and a missing effect (a periodic misfit) must not pass for correlated noise."""
+    n_eff is the current model's (conservative: a misfit the baseline's optimizer leaves in a
+    valley is not counted as independent samples; measured, the candidate's own n_eff selected
+    viscous in a noise-free Dahl record)."""
     floor = problem.floor
-    n_eff = max(fit.n_eff, 2.0)
+    n_eff = max(current.n_eff, 2.0)
     delta_bic = n_eff * math.log((fit.rss + floor) / (current.rss + floor)) + \
         (fit.k - current.k) * math.log(n_eff)
     drop = 1.0 - math.sqrt((fit.rss + floor) / (current.rss + floor))

@@ -85,6 +85,9 @@ def set_line(result: SimIdentification) -> str:
                                                                  "mass_kg")]
     if "normal_force_modulation" in result.final.values:
         names.append("normal_force_modulation_frequency_Hz")
+    if result.train.lagged_sensor == "dynamometer":
+        # the lag is the rig dynamometer's (its sensor's time_constant), not the element's
+        names = [n for n in names if n != "sensor_lag_s"]
     parts = [f"--law {result.law}"]
     for n in dict.fromkeys(names):
         if p.get(n) is not None:
@@ -105,7 +108,8 @@ def report_markdown(result: SimIdentification) -> str:
              f"- MuJoCo timestep {replay.timestep_s:.4g} s ({replay.substeps} step(s) a "
              f"sample); {r.simulations} simulations in {r.seconds:.1f} s",
              f"- record: `{replay.name}`, {replay.n} samples; measured outputs: " +
-             ", ".join(f"{c} (noise sd {replay.noise[c]:.3g} {_UNITS[c]})"
+             ", ".join(f"{c} (white-noise sd {replay.noise[c]:.3g}, weighted by sd "
+                       f"{r.settings['noise_sd'][c]:.3g} {_UNITS[c]})"
                        for c in replay.channels),
              "- held-out records: " + (", ".join(f"`{v.name}`" for v in r.validation) or
                                        "none"),
@@ -152,6 +156,8 @@ def report_markdown(result: SimIdentification) -> str:
                 "– | –"
             lines.append(f"| {c.round} | {c.effect} | {c.screen_delta_bic:.1f} | {fitted} | "
                          f"{'justified' if c.justified else 'no: ' + c.reason} |")
+    for effect, why in r.dropped.items():
+        lines.append(f"| – | {effect} | – | – | – | {why} |")
     for effect, why in r.skipped.items():
         lines.append(f"| – | {effect} | – | – | – | not a candidate: {why} |")
     lines += ["", "## Final model", "", "| parameter | value |", "|---|---|"]
@@ -161,6 +167,10 @@ def report_markdown(result: SimIdentification) -> str:
     lines += ["", "Residual peaks (Hz, " + r.primary + "): " +
               (", ".join(f"{f:.6g}" for f in r.residual_peaks_Hz) or "none"), "",
               "Run the fitted rig:", "", f"    vibrofriction simulate {set_line(r)}", ""]
+    if replay.lagged_sensor == "dynamometer" and "sensor_lag_s" in r.final.values:
+        lines += [f"The fitted sensor lag ({r.final.values['sensor_lag_s']:.6g} s) is the "
+                  "dynamometer's: the `time_constant` of the rig's `dynamometer` "
+                  "(`vibrofriction.lagged_tendon`) sensor, not a friction attribute.", ""]
     return "\n".join(lines)
 
 
