@@ -33,8 +33,10 @@ def test_variants_are_built_by_spec_editing():
     config = StudyConfig.quick_config()
     for name in builtin.BUILTIN_VARIANTS:
         model = builtin.build_variant_spec(name, rig, config, 5e-6).compile()
-        # The friction plugin is gone; the support and drive-end motion plugins stay.
-        assert model.nplugin == 2, name
+        # The friction plugin is gone; the support and drive-end motions and the dynamometer
+        # sensor stay.
+        assert model.nplugin == 3, name
+        assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_PLUGIN, "friction") == -1
         assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, "friction") == -1
         assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, "friction_state") == -1
         joint = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, "slider_on_table")

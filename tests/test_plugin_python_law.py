@@ -95,7 +95,8 @@ def test_spec_replaces_the_element():
     assert actuator.dyntype[0] == mujoco.mjtDyn.mjDYN_USER
     assert model.actuator_actnum[actuator.id] == 1 and model.actuator_actearly[actuator.id]
     assert actuator.gainprm[0] == -8e7
-    assert model.nplugin == 2  # the two motion instances, no friction instance
+    assert model.nplugin == 3  # the two motions and the dynamometer sensor, no friction
+    assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_PLUGIN, "friction") == -1
     bare = bare_rig_spec(rig).compile()
     assert bare.na == 0 and bare.nu == 3
 
