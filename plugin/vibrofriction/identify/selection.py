@@ -89,12 +89,7 @@ def identify(train: Dataset, validation: Sequence[Dataset] = (), *, law: str = "
              progress: ProgressFn | None = None) -> Identification:
     """Fit ``law`` (+ declared effects) to ``train``, then trace and select effects."""
     say = progress or (lambda message: None)
-    if law not in LAWS:
-        raise InputError(f"unknown friction law {law!r}; use one of: {', '.join(LAWS)}")
-    unknown = [e for e in declared if e not in EFFECTS]
-    if unknown:
-        raise InputError(f"unknown effect(s) {', '.join(unknown)}; the vocabulary is "
-                         f"{', '.join(EFFECTS)}")
+    check_law_and_effects(law, declared)
     state_law = law != "coulomb"
     record = prepare(train, substeps=substeps, lowpass_Hz=lowpass_Hz, state_law=state_law)
     held = [prepare(d, substeps=substeps, lowpass_Hz=lowpass_Hz, state_law=state_law)
@@ -181,6 +176,16 @@ def _not_applicable(record: Record, law: str, declared: Sequence[str]) -> dict[s
     for effect in declared:
         out.pop(effect, None)
     return out
+
+
+def check_law_and_effects(law: str, declared: Sequence[str]) -> None:
+    """InputError naming an unknown law or effect (both identification paths)."""
+    if law not in LAWS:
+        raise InputError(f"unknown friction law {law!r}; use one of: {', '.join(LAWS)}")
+    unknown = [e for e in declared if e not in EFFECTS]
+    if unknown:
+        raise InputError(f"unknown effect(s) {', '.join(unknown)}; the vocabulary is "
+                         f"{', '.join(EFFECTS)}")
 
 
 def _check_compatible(train: Record, held: Sequence[Record]) -> None:

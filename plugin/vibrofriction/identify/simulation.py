@@ -51,12 +51,12 @@ from scipy.optimize import least_squares
 
 from ..datasets import Dataset
 from ..errors import InputError
-from ..params import LAWS, FrictionParameters, RigParameters, lugre_default_bristle_damping
+from ..params import FrictionParameters, RigParameters, lugre_default_bristle_damping
 from .analysis import effective_samples, spectral_peaks
 from .fit import Metrics, _metrics
 from .model import EFFECT_INTERNALS, EFFECTS, Model, Scales
 from .replay import MAX_SUBSTEPS, Replayer, RigReplay, prepare_replay
-from .selection import BIC_THRESHOLD, MIN_IMPROVEMENT
+from .selection import BIC_THRESHOLD, MIN_IMPROVEMENT, check_law_and_effects
 
 ProgressFn = Callable[[str], None]
 _TOL = 1e-8
@@ -271,12 +271,7 @@ def identify_by_simulation(train: Dataset, validation: Sequence[Dataset] = (), *
     """Fit ``law`` (+ declared effects) to ``train`` by simulating the rig, then select."""
     started = time.monotonic()
     say = progress or (lambda message: None)
-    if law not in LAWS:
-        raise InputError(f"unknown friction law {law!r}; use one of: {', '.join(LAWS)}")
-    unknown = [e for e in declared if e not in EFFECTS]
-    if unknown:
-        raise InputError(f"unknown effect(s) {', '.join(unknown)}; the vocabulary is "
-                         f"{', '.join(EFFECTS)}")
+    check_law_and_effects(law, declared)
     replay = prepare_replay(train, substeps=substeps)
     held = [prepare_replay(d, substeps=replay.substeps) for d in validation]
     for h in held:
@@ -288,9 +283,12 @@ def identify_by_simulation(train: Dataset, validation: Sequence[Dataset] = (), *
     problems: list[SimulationProblem] = []  # every one made is closed, whatever happens
 
     def problem_at(steps: int) -> SimulationProblem:
-        at = prepare_replay(train, substeps=steps)
-        problems.append(SimulationProblem(at, [prepare_replay(d, substeps=steps)
-                                               for d in validation], law, threads))
+        if steps == replay.substeps:  # already prepared above
+            at, at_held = replay, held
+        else:
+            at = prepare_replay(train, substeps=steps)
+            at_held = [prepare_replay(d, substeps=steps) for d in validation]
+        problems.append(SimulationProblem(at, at_held, law, threads))
         return problems[-1]
 
     try:
