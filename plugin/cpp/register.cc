@@ -5,6 +5,7 @@
 #include "averaged_friction.h"  // vibrofriction.planar, vibrofriction.averaged
 #include "friction_element.h"
 #include "lagged_tendon.h"
+#include "sampled_pd.h"
 #include "state_sensor.h"
 #include "support_motion.h"
 
@@ -14,4 +15,5 @@ mjPLUGIN_LIB_INIT(vibrofriction) {
   vibrofriction::RegisterPlanarPlugins();
   vibrofriction::RegisterStateSensors();
   vibrofriction::LaggedTendon::RegisterPlugin();
+  vibrofriction::SampledPd::RegisterPlugin();
 }

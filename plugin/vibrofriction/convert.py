@@ -32,7 +32,8 @@ EMPS_SOURCE = (
     "EMPS', Nonlinear System Identification Benchmarks workshop, 2019 (cite when used)")
 EMPS_DESCRIPTION = (
     "EMPS prismatic joint (DC motor + ball screw), closed-loop PD, bang-bang motion. "
-    "position_m = qm (motor position on the load side); drive_force_N = gtau*vir. "
+    "position_m = qm (motor position on the load side), reference_position_m = qg; "
+    "drive_force_N = gtau*vir. Controller: kp = 160.18 1/s, kv = 243.45 V s/m, 1 kHz. "
     "Friction = drive force - M*a with the mass M to identify. Reference IDIM-LS values "
     "(description, section 3): M = 95.1089 kg, Fv = 203.5034 N s/m, Fc = 20.3935 N, "
     "offset = -3.1648 N; force relative error 4.08 % (inverse model), 5.85 % (direct "
@@ -58,10 +59,13 @@ PNEUMATIC_COLUMNS = ("time [ms]", "laser [V]", "pressure [V]", "force [V]",
 # ------------------------------------------------------------------------------------- EMPS
 
 def convert_emps(mat_path: str | os.PathLike) -> Dataset:
-    """``DATA_EMPS.mat`` -> position_m = qm, drive_force_N = gtau * vir (no friction column).
+    """``DATA_EMPS.mat`` (or ``DATA_EMPS_PULSES.mat``) -> a record of the EMPS closed loop.
 
-    The motor force drives the load; friction follows from Newton's law with the mass, which is
-    left unset (identified). ``qg`` (the reference) is not part of the dataset format.
+    position_m = qm, reference_position_m = qg (the controller's input), drive_force_N =
+    gtau * vir (the total motor force), and for the validation run feedforward_force_N =
+    gtau * pulses_N (the pulses are volts added to the controller's command, so they are
+    already inside vir). The sidecar names the model (``"model": "emps"``): identification
+    simulates the closed loop of ``mjcf_models/emps`` driven by the reference.
     """
     from scipy.io import loadmat  # scipy only for this converter
 
@@ -71,13 +75,18 @@ def convert_emps(mat_path: str | os.PathLike) -> Dataset:
     except Exception as exc:  # scipy raises several types for a non-MAT file
         raise DatasetError(f"{path}: not a readable MATLAB file: {exc}") from None
     time_s = _mat_vector(mat, "t", path)
-    raw = {"t": time_s, "qm": _mat_vector(mat, "qm", path), "vir": _mat_vector(mat, "vir", path)}
+    raw = {"t": time_s, "qm": _mat_vector(mat, "qm", path), "qg": _mat_vector(mat, "qg", path),
+           "vir": _mat_vector(mat, "vir", path)}
+    if "pulses_N" in mat:
+        raw["pulses_N"] = _mat_vector(mat, "pulses_N", path)
     gtau_N_per_V = _mat_scalar(mat, "gtau", path)
     _check_source_table(raw, "t", path, lambda i: f"sample {i + 1}")
-    columns = {"time_s": time_s, "position_m": raw["qm"],
+    columns = {"time_s": time_s, "position_m": raw["qm"], "reference_position_m": raw["qg"],
                "drive_force_N": gtau_N_per_V * raw["vir"]}
+    if "pulses_N" in raw:
+        columns["feedforward_force_N"] = gtau_N_per_V * raw["pulses_N"]
     metadata = DatasetMetadata(description=EMPS_DESCRIPTION, sample_rate_Hz=EMPS_SAMPLE_RATE_HZ,
-                               source=EMPS_SOURCE)
+                               source=EMPS_SOURCE, model="emps")
     return Dataset(name=path.stem, columns=columns, metadata=metadata, source_path=path)
 
 

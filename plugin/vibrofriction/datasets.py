@@ -34,6 +34,10 @@ COLUMNS = (
     "support_velocity_m_per_s",
     "support_position_m",
     "normal_force_N",
+    # inputs of a machine model (sidecar "model"): what drives it besides the friction
+    "reference_position_m",  # the position controller's reference
+    "feedforward_force_N",  # a known force added at the drive (part of drive_force_N)
+    "external_force_N",  # a measured force on the body that does not pass through the drive
 )
 # Each group needs at least one of its columns.
 REQUIRED_GROUPS = (
@@ -59,7 +63,7 @@ def data_row_label(index: int) -> str:
 
 # ---------------------------------------------------------------------------------- metadata
 
-_TEXT_KEYS = ("description", "source")
+_TEXT_KEYS = ("description", "source", "model")
 # Numeric keys and the range each must lie in (name of the rule, test).
 _NUMBER_RULES: dict[str, tuple[str, Callable[[float], bool]]] = {
     "mass_kg": ("> 0", lambda x: x > 0),
@@ -86,6 +90,9 @@ class DatasetMetadata:
     source: str | None = None
     # A record made by a simulator: its timestep (identification replays it at that step).
     simulation_timestep_s: float | None = None
+    # The MJCF model that made or explains the record: a bundled machine ("emps"); absent:
+    # the vibrating rig (identification replays the record in that model).
+    model: str | None = None
 
     def __post_init__(self) -> None:
         for key in _TEXT_KEYS:

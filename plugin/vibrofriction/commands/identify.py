@@ -64,10 +64,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="simulation: fit the MuJoCo rig scene with the plugin, driven by "
                              "the record's inputs, to every measured channel (output error; "
                              "needs a rig record: drive_stiffness_N_per_m and "
-                             "drive_velocity_m_per_s in the sidecar). inverse: the law driven "
+                             "drive_velocity_m_per_s in the sidecar; or a sidecar 'model', "
+                             "e.g. emps: that machine in closed loop). inverse: the law driven "
                              "by the measured, differentiated motion (fast; for records with "
                              "no simulator model). auto (default): simulation where the "
-                             "record is a rig record, else inverse; the report says which ran "
+                             "record is a rig record or names its model, else inverse; the report says which ran "
                              "and why")
     parser.add_argument("--timestep", type=float, default=1e-6, metavar="S",
                         help="inverse path: timestep of the MuJoCo rig replay of the final "
@@ -131,6 +132,9 @@ def _method(requested: str, train: Dataset) -> tuple[str, str]:
         return "inverse", "asked for with --method inverse"
     if requested == "simulation":
         return "simulation", "asked for with --method simulation"
+    if meta.model is not None:
+        return "simulation", (f"the sidecar names the model ({meta.model!r}): that MuJoCo "
+                              "scene, in closed loop, is fitted to what the record measured")
     if rig_record:
         return "simulation", ("a rig record (drive spring and drive velocity in the sidecar): "
                               "the MuJoCo rig scene is fitted to what the record measured")

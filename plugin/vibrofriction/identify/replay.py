@@ -102,6 +102,39 @@ class RigReplay:
         measures friction, else the dynamometer's (``drive_force_N``)."""
         return "friction" if "friction_force_N" in self.measured else "dynamometer"
 
+    @property
+    def velocity_scale_m_per_s(self) -> float:
+        """rms support speed (or the drive speed): the scale of the fit's velocities."""
+        v_rms = math.sqrt(float(np.mean(np.diff(self.control[:, 0]) ** 2))) / self.timestep_s
+        return max(v_rms, abs(self.rig.drive_velocity_m_per_s))
+
+    def start_levels(self, scan: Sequence[float]) -> tuple[float, list[float]]:
+        """The friction level that scales the fit and the levels a start scan tries: the
+        measured friction's, else the drive force's late mean times ``scan`` (vibration lowers
+        the drive force below the friction level)."""
+        if "friction_force_N" in self.measured:
+            level = float(np.quantile(np.abs(self.measured["friction_force_N"]), 0.95))
+            return max(level, 1e-9), [level]
+        drive = self.measured["drive_force_N"]
+        level = float(np.mean(np.abs(drive[len(drive) // 2:])))
+        return max(level, 1e-9), [level * r for r in scan]
+
+    def halved(self) -> "RigReplay":
+        """The same replay at half the timestep: the step ends in between by linear
+        interpolation of the controls (they already follow the measured motion's spline)."""
+        c = self.control
+        first = np.array([[self.initial_support_position_m, self.initial_drive_end_m, 0.0, 0.0]])
+        previous = np.vstack([first, c[:-1]])
+        out = np.empty((2 * len(c), c.shape[1]))
+        out[0::2] = 0.5 * (previous + c)
+        out[1::2] = c
+        return replace(self, substeps=2 * self.substeps, timestep_s=self.timestep_s / 2,
+                       control=out[:2 * (self.nstep - 1) + 1])
+
+    def outputs(self, model: mujoco.MjModel, rig: RigParameters, sensordata: np.ndarray,
+                names: Sequence[str]) -> dict[str, np.ndarray]:
+        return _channels(model, rig, sensordata, names)
+
     def model(self, rig: RigParameters, friction: FrictionParameters) -> mujoco.MjModel:
         """The rig scene with these values, its motions driven by ctrl."""
         lag_s = friction.sensor_lag_s
@@ -182,7 +215,7 @@ class Replayer:
                                                np.ascontiguousarray(control),
                                                nstep=replay.nstep)
             for k, i in enumerate(members):
-                out[i] = _channels(models[i], cases[i][0], sensordata[k, rows], names)
+                out[i] = replay.outputs(models[i], cases[i][0], sensordata[k, rows], names)
         self.simulations += len(models)
         return out
 
@@ -214,7 +247,11 @@ def _channels(model: mujoco.MjModel, rig: RigParameters, sensordata: np.ndarray,
 
 
 def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigReplay:
-    """Set a record up for replay in the rig; InputError naming what is missing otherwise."""
+    """Set a record up for replay in the rig (or in the machine its sidecar's ``model``
+    names); InputError naming what is missing otherwise."""
+    if dataset.metadata.model is not None:
+        from .machine_replay import prepare_machine_replay
+        return prepare_machine_replay(dataset, substeps=substeps)
     where = str(dataset.source_path or dataset.name)
     meta = dataset.metadata
     columns = dataset.columns

@@ -517,8 +517,8 @@ def _still_stage(dataset: Dataset, substeps: int) -> RigReplay | None:
 
 
 def _not_applicable(replay: RigReplay, law: str, declared: Sequence[str]) -> dict[str, str]:
-    out: dict[str, str] = {}
-    if not replay.vibrating:
+    out: dict[str, str] = dict(getattr(replay, "not_applicable", {}))
+    if not replay.vibrating and "normal_force_modulation" not in out:
         out["normal_force_modulation"] = ("the support does not vibrate (no support motion or "
                                           "no vibration_frequency_Hz)")
     for effect in declared:
@@ -535,17 +535,9 @@ def _start(problem: SimulationProblem, law: str, fit_mass: bool,
     shape (Dupont's breakaway, a declared Stribeck curve) around the best of those."""
     replay = problem.train
     normal = replay.rig.normal_force_N
-    if "friction_force_N" in replay.measured:
-        level = float(np.quantile(np.abs(replay.measured["friction_force_N"]), 0.95))
-        levels = [level]
-    else:
-        drive = replay.measured["drive_force_N"]
-        level = float(np.mean(np.abs(drive[len(drive) // 2:])))
-        levels = [level * r for r in _LEVEL_SCAN]
-    level = max(level, 1e-9)
+    level, levels = replay.start_levels(_LEVEL_SCAN)
     dt = float(np.median(np.diff(replay.time_s)))
-    v_rms = math.sqrt(float(np.mean(np.diff(replay.control[:, 0]) ** 2))) / replay.timestep_s
-    scales = Scales(force_N=level, velocity_m_per_s=max(v_rms, abs(replay.rig.drive_velocity_m_per_s)),
+    scales = Scales(force_N=level, velocity_m_per_s=replay.velocity_scale_m_per_s,
                     normal_force_N=normal, dt_s=dt,
                     travel_m=float(np.ptp(replay.measured.get("position_m", [0.0]))) or 1e-3)
     model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law))
@@ -596,9 +588,7 @@ def _internal_names(model: Model, values: Mapping[str, float]) -> dict[str, floa
 def _halved_change(problem: SimulationProblem, fit: SimFit) -> np.ndarray:
     """How the fit's prediction (channels stacked, in their units) changes at half the step."""
     replay = problem.train
-    finer = replace(replay, substeps=2 * replay.substeps, timestep_s=replay.timestep_s / 2,
-                    control=_refined_control(replay))
-    with Replayer(finer, problem.runner.threads) as runner:
+    with Replayer(replay.halved(), problem.runner.threads) as runner:
         out = runner.run([problem.case(fit.model, fit.values)])[0]
     return np.concatenate([out[c] - fit.predicted[c] for c in replay.channels])
 
@@ -606,21 +596,6 @@ def _halved_change(problem: SimulationProblem, fit: SimFit) -> np.ndarray:
 def _stacked(problem: SimulationProblem, weights: Mapping[str, float]) -> np.ndarray:
     n = problem.train.n
     return np.concatenate([np.full(n, weights[c]) for c in problem.train.channels])
-
-
-def _refined_control(replay: RigReplay) -> np.ndarray:
-    """Controls at half the timestep: the step ends in between by linear interpolation of the
-    coarse ones (the coarse controls already follow the measured motion's spline)."""
-    c = replay.control
-    previous = np.vstack([_first_control(replay), c[:-1]])
-    out = np.empty((2 * len(c), c.shape[1]))
-    out[0::2] = 0.5 * (previous + c)
-    out[1::2] = c
-    return out[:2 * (replay.nstep - 1) + 1]
-
-
-def _first_control(replay: RigReplay) -> np.ndarray:
-    return np.array([[replay.initial_support_position_m, replay.initial_drive_end_m, 0.0, 0.0]])
 
 
 # ----------------------------------------------------------------------------- candidates
