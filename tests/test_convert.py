@@ -38,7 +38,9 @@ def emps():
 
 
 def test_emps_shape_units_and_metadata(emps) -> None:
-    assert list(emps.columns) == ["time_s", "position_m", "drive_force_N"]
+    assert list(emps.columns) == ["time_s", "position_m", "drive_force_N",
+                                  "reference_position_m"]
+    assert emps.metadata.model == "emps"  # identification replays the closed loop
     assert emps.n_rows == 24841 and emps.duration_s == pytest.approx(24.84)
     assert np.all(np.abs(emps.position_m) < 0.3) and np.ptp(emps.position_m) > 0.2
     assert np.abs(emps.columns["drive_force_N"]).max() == pytest.approx(152.0, abs=1.0)
@@ -136,7 +138,7 @@ def test_friction_damper_bad_rows(tmp_path: Path, rows: list, words: str) -> Non
 def test_emps_missing_variable(tmp_path: Path) -> None:
     from scipy.io import savemat
     bad = tmp_path / "emps.mat"
-    savemat(bad, {"t": np.arange(3.0), "qm": np.zeros(3), "gtau": 35.15})
+    savemat(bad, {"t": np.arange(3.0), "qm": np.zeros(3), "qg": np.zeros(3), "gtau": 35.15})
     with pytest.raises(DatasetError, match="emps.mat: missing variable 'vir'"):
         convert_emps(bad)
 

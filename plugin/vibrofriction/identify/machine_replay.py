@@ -104,6 +104,8 @@ class MachineReplay:
     vibrating: bool = False
     timestep_from_record: bool = False
     lagged_sensor: str = "friction"
+    # the timestep scan judges the simulator's error in the fit's weights (see simulation.py)
+    timestep_in_fit_weights: bool = True
 
     @property
     def n(self) -> int:
@@ -122,6 +124,10 @@ class MachineReplay:
         return float(np.median(np.diff(self.time_s)))
 
     def model(self, rig: RigParameters, friction: FrictionParameters) -> mujoco.MjModel:
+        return self.spec(rig, friction).compile()
+
+    def spec(self, rig: RigParameters, friction: FrictionParameters) -> mujoco.MjSpec:
+        """The machine scene with these values (``to_xml()`` writes the fitted scene)."""
         rig_module.load()
         friction.validate()
         spec = mujoco.MjSpec.from_file(str(self.scene.path))
@@ -137,7 +143,7 @@ class MachineReplay:
         controller = next(p for p in spec.plugins if p.name == self.scene.controller)
         rig_module.set_plugin_config(spec, self.scene.controller, {
             **dict(controller.config), "sample_period": repr(self.sample_interval_s)})
-        return spec.compile()
+        return spec
 
     def initial_state(self, model: mujoco.MjModel, friction: FrictionParameters,
                       data: mujoco.MjData) -> np.ndarray:
@@ -193,6 +199,32 @@ class MachineReplay:
         return self.level_N, [self.level_N * r for r in (0.5, 1.0, 2.0)]
 
 
+# The published figures' definition (EMPS description, eq. 11): relerr from the 50th sample.
+PUBLISHED_FIRST_SAMPLE = 49
+
+
+def closed_loop_errors(replay: MachineReplay, predicted: dict[str, np.ndarray]
+                       ) -> dict[str, float]:
+    """Relative errors (%) of the closed-loop simulation as the benchmark defines them,
+    100 ||y - y_sim|| / ||y|| from the 50th sample: the total drive force, the position, and
+    the velocity (the measured one a central difference of the position: for this figure
+    only, never a prediction)."""
+    def relerr(simulated: np.ndarray, measured: np.ndarray) -> float:
+        a, b = simulated[PUBLISHED_FIRST_SAMPLE:], measured[PUBLISHED_FIRST_SAMPLE:]
+        return float(100 * np.linalg.norm(a - b) / np.linalg.norm(b))
+
+    out = {}
+    if "drive_force_N" in replay.measured:
+        out["force_relerr_pct"] = relerr(predicted["drive_force_N"],
+                                         replay.measured["drive_force_N"])
+    if "position_m" in replay.measured:
+        position = replay.measured["position_m"]
+        out["position_relerr_pct"] = relerr(predicted["position_m"], position)
+        out["velocity_relerr_pct"] = relerr(predicted["velocity_m_per_s"],
+                                            np.gradient(position, replay.time_s))
+    return out
+
+
 def _control(scene: MachineScene, inputs: dict[str, np.ndarray], n: int,
              substeps: int) -> np.ndarray:
     rig_module.load()
@@ -228,6 +260,8 @@ def prepare_machine_replay(dataset: Dataset, *, substeps: int | None = None) -> 
     if "drive_force_N" not in measured and "friction_force_N" not in measured:
         raise InputError(f"{where}: the record measures no force (drive_force_N or "
                          "friction_force_N); nothing to fit the friction to")
+    from .replay import substeps_of_record
+    substeps, from_record = substeps_of_record(dataset, sample_dt, substeps)
     substeps = int(substeps or 1)
     if not 1 <= substeps <= 64:
         raise InputError(f"substeps {substeps} must lie in 1..64")
@@ -255,7 +289,7 @@ def prepare_machine_replay(dataset: Dataset, *, substeps: int | None = None) -> 
         initial_position_m=float(position[0]),
         initial_velocity_m_per_s=float(smoothed_derivative(position[:32], t[:32])[0]),
         initial_friction_N=float(force[0]), level_N=level, velocity_scale_m_per_s=v_scale,
-        inputs=inputs)
+        inputs=inputs, timestep_from_record=from_record)
 
 
-__all__ = ["MACHINES", "MachineReplay", "MachineScene", "machine", "prepare_machine_replay"]
+__all__ = ["MACHINES", "closed_loop_errors", "MachineReplay", "MachineScene", "machine", "prepare_machine_replay"]

@@ -282,15 +282,7 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
         raise InputError(f"{where}: vibration_frequency_Hz {frequency:g} is above 0.8 of the "
                          f"Nyquist frequency of the record ({0.5 / sample_dt:g} Hz): the "
                          "support's motion is not resolved; record it faster")
-    simulated = meta.simulation_timestep_s
-    from_record = False
-    if substeps is None and simulated:
-        ratio = sample_dt / simulated
-        if abs(ratio - round(ratio)) > 1e-6 or not 1 <= round(ratio) <= 64:
-            raise InputError(f"{where}: simulation_timestep_s {simulated:g} must divide the "
-                             f"sample interval {sample_dt:g} s into 1 to 64 steps; fix the "
-                             "sidecar or pass --substeps")
-        substeps, from_record = round(ratio), True  # replayed as the record was simulated
+    substeps, from_record = substeps_of_record(dataset, sample_dt, substeps)
     if substeps is None:
         substeps = 1
         if vibrating:
@@ -357,6 +349,22 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
         initial_support_velocity_m_per_s=float(support_velocity[0]),
         initial_drive_end_m=drive_end0, initial_friction_N=friction0, vibrating=vibrating,
         timestep_from_record=from_record)
+
+
+def substeps_of_record(dataset: Dataset, sample_dt: float,
+                       substeps: int | None) -> tuple[int | None, bool]:
+    """(substeps, from the record): a record a simulator made is replayed at its timestep
+    (the sidecar's ``simulation_timestep_s``) unless ``substeps`` is given."""
+    simulated = dataset.metadata.simulation_timestep_s
+    if substeps is not None or not simulated:
+        return substeps, False
+    ratio = sample_dt / simulated
+    if abs(ratio - round(ratio)) > 1e-6 or not 1 <= round(ratio) <= 64:
+        where = str(dataset.source_path or dataset.name)
+        raise InputError(f"{where}: simulation_timestep_s {simulated:g} must divide the "
+                         f"sample interval {sample_dt:g} s into 1 to 64 steps; fix the "
+                         "sidecar or pass --substeps")
+    return round(ratio), True  # replayed as the record was simulated
 
 
 def vibration_band(velocity: np.ndarray, dt: float, frequency_Hz: float) -> np.ndarray:

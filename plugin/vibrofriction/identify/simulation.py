@@ -139,6 +139,9 @@ class SimIdentification:
     simulations: int = 0
     dropped: dict[str, str] = field(default_factory=dict)  # effect -> why (backward step)
     seconds: float = 0.0
+    # machine records: the benchmark-defined errors of the closed-loop simulation, per model
+    # ("baseline", "final") and record ("train", then each held-out record's name)
+    closed_loop: dict[str, dict[str, dict[str, float]]] | None = None
 
 
 class SimulationProblem:
@@ -335,14 +338,22 @@ def _converged_timestep(problem: SimulationProblem, train: Dataset, law: str,
     steps = problem.train.substeps
     with Replayer(problem.train, problem.runner.threads) as runner:
         coarse = runner.run([case])[0]
+    sd = dict(problem.noise)
+    if getattr(problem.train, "timestep_in_fit_weights", False):
+        # A machine's friction model misses the record by far more than its sensors' noise:
+        # judged in the weights the fit will use (each channel's sd at least the start's
+        # residual rms; the baseline is checked again in its own), not in white-noise units.
+        for c in problem.train.channels:
+            rms = math.sqrt(float(np.mean((coarse[c] - problem.train.measured[c]) ** 2)))
+            sd[c] = max(sd[c], rms)
     while 2 * steps <= MAX_SUBSTEPS:
         finer = prepare_replay(train, substeps=2 * steps)
         with Replayer(finer, problem.runner.threads) as runner:
             fine = runner.run([case])[0]
-        change = problem.weighted(fine) - problem.weighted(coarse)
+        change = np.concatenate([(fine[c] - coarse[c]) / sd[c] for c in problem.train.channels])
         rms = math.sqrt(float(change @ change) / len(change))
         say(f"timestep {finer.timestep_s * 2:.4g} s: halving it changes the prediction by "
-            f"{rms:.3g} noise sd (rms)" + ("" if rms <= TIMESTEP_TOLERANCE else "; halving"))
+            f"{rms:.3g} sd (rms)" + ("" if rms <= TIMESTEP_TOLERANCE else "; halving"))
         if rms <= TIMESTEP_TOLERANCE:
             break
         steps, coarse = 2 * steps, fine
@@ -488,6 +499,10 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
                 say(f"round {index}: dropped {earlier} (keeping it: dBIC {keep_dbic:.1f})")
     say("selected: " + (", ".join(selected) if selected else "nothing"))
     peaks = _residual_peaks(problem, current)
+    closed_loop = None
+    if hasattr(replay, "scene"):
+        closed_loop = {label: _closed_loop_errors(problem, fit)
+                       for label, fit in (("baseline", baseline), ("final", current))}
     return SimIdentification(
         law=law, declared=declared, train=replay, validation=problem.validation,
         primary=problem.primary, baseline=baseline, final=current, candidates=candidates,
@@ -498,7 +513,20 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
                   "timestep_s": replay.timestep_s, "min_improvement": min_improvement,
                   "bic_threshold": bic_threshold, "fit_mass": fit_mass,
                   "noise_sd": dict(problem.noise)},
-        simulations=problem.simulations, seconds=time.monotonic() - started)
+        simulations=problem.simulations, seconds=time.monotonic() - started,
+        closed_loop=closed_loop)
+
+
+def _closed_loop_errors(problem: SimulationProblem, fit: SimFit) -> dict[str, dict]:
+    """A machine's closed-loop errors as its benchmark defines them, on every record."""
+    from .machine_replay import closed_loop_errors
+    extra = ("position_m", "velocity_m_per_s", "drive_force_N")
+    out = {"train": closed_loop_errors(problem.train, problem.runner.run(
+        [problem.case(fit.model, fit.values)], extra)[0])}
+    for replay, runner in zip(problem.validation, problem.held_runners):
+        predicted = runner.run([problem.case(fit.model, fit.values, replay)], extra)[0]
+        out[replay.name] = closed_loop_errors(replay, predicted)
+    return out
 
 
 def _still_stage(dataset: Dataset, substeps: int) -> RigReplay | None:

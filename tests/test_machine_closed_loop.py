@@ -1,0 +1,198 @@
+"""A machine in closed loop: the vibrofriction.sampled_pd controller, the EMPS scene, its records
+and their identification by simulation (issue 17, item 5)."""
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from vibrofriction import cli
+from vibrofriction import rig as rig_module
+from vibrofriction.convert import convert_emps
+from vibrofriction.datasets import Dataset, DatasetMetadata, write_dataset
+from vibrofriction.errors import InputError
+from vibrofriction.identify.machine_replay import MACHINES, closed_loop_errors
+from vibrofriction.identify.replay import Replayer, prepare_replay
+from vibrofriction.identify.simulation import identify_by_simulation
+from vibrofriction.params import FrictionParameters
+
+EMPS_MAT = Path(__file__).resolve().parents[2] / "shared" / "data" / "emps" / "DATA_EMPS.mat"
+EMPS_XML = MACHINES["emps"].path
+CONTROLLER = {"position_gain": 160.18, "velocity_gain": 243.45, "drive_gain": 35.15,
+              "saturation": 10.0, "sample_period": 1e-3}
+
+
+def _need_emps() -> Path:
+    if not EMPS_MAT.is_file():
+        pytest.skip(f"EMPS data not found at {EMPS_MAT} (the shared data folder is absent)")
+    return EMPS_MAT
+
+
+def _controller_spec(substeps: int = 4, **config) -> mujoco.MjSpec:
+    """A 2 kg carriage, no friction, under the sampled PD (EMPS gains unless overridden)."""
+    rig_module.load()
+    values = {**CONTROLLER, **config}
+    spec = mujoco.MjSpec.from_string(f"""
+<mujoco>
+  <option timestep="{values['sample_period'] / substeps!r}" integrator="Euler"/>
+  <extension><plugin plugin="vibrofriction.sampled_pd"><instance name="pd">
+    {''.join(f'<config key="{k}" value="{v!r}"/>' for k, v in values.items())}
+  </instance></plugin></extension>
+  <worldbody><body name="b"><joint name="x" type="slide" axis="1 0 0"/>
+    <inertial pos="0 0 0" mass="2" diaginertia="1 1 1"/></body></worldbody>
+  <actuator><plugin name="motor" joint="x" instance="pd"/></actuator>
+</mujoco>""")
+    return spec
+
+
+def _run_controller(model: mujoco.MjModel, substeps: int, reference: np.ndarray):
+    """Positions and forces at every sample's first step."""
+    data = mujoco.MjData(model)
+    q, force = [], []
+    for r in reference:
+        data.ctrl[0] = r
+        q.append(float(data.qpos[0]))
+        mujoco.mj_step(model, data)
+        force.append(float(data.actuator_force[0]))
+        for _ in range(substeps - 1):
+            mujoco.mj_step(model, data)
+            assert data.actuator_force[0] == force[-1]  # held between samples
+    return np.array(q), np.array(force)
+
+
+@pytest.mark.parametrize("delay", [0, 1])
+def test_sampled_pd_applies_its_documented_law_held_over_each_sample(delay):
+    substeps = 4
+    model = _controller_spec(substeps, command_delay=delay).compile()
+    n = 400
+    reference = 0.02 * np.sin(np.linspace(0, 6, n)) ** 2
+    q, force = _run_controller(model, substeps, reference)
+    T = CONTROLLER["sample_period"]
+    filtered = 0.5 * (q + np.r_[q[0], q[:-1]])  # at rest before the first sample
+    velocity = np.diff(np.r_[filtered[0], filtered]) / T
+    law = CONTROLLER["velocity_gain"] * (CONTROLLER["position_gain"] * (reference - q) -
+                                         velocity)
+    applied = law if delay == 0 else np.r_[0.0, law[:-1]]
+    expected = CONTROLLER["drive_gain"] * np.clip(applied, -10, 10)
+    assert np.max(np.abs(force - expected)) <= 1e-9 * np.max(np.abs(expected))
+    assert np.any(np.abs(applied) > 10)  # the saturation was exercised
+
+
+@pytest.mark.parametrize("changes, attribute, fix", [
+    ({"velocity_gain": 0.0}, "velocity_gain", "must be > 0"),
+    ({"command_delay": 2.0}, "command_delay", "0 or 1"),
+    ({"sample_period": 1e-6}, "sample_period", "at least the model's timestep"),
+    ({"saturation": -1.0}, "saturation", ">= 0"),
+])
+def test_sampled_pd_bad_config_is_named(changes, attribute, fix):
+    spec = _controller_spec(4, **{k: v for k, v in changes.items() if k != "sample_period"})
+    if "sample_period" in changes:
+        spec.option.timestep = 1e-4
+        plugin = spec.plugins[0]
+        plugin.config = {**dict(plugin.config), "sample_period": "1e-6"}
+    with pytest.raises(ValueError) as info:
+        spec.compile()
+    message = str(info.value)
+    assert "vibrofriction.sampled_pd" in message and attribute in message and fix in message
+
+
+def test_the_emps_scene_compiles_alone_and_holds_still_at_its_reference():
+    rig_module.load()
+    model = mujoco.MjModel.from_xml_path(str(EMPS_XML))
+    data = mujoco.MjData(model)
+    data.ctrl[model.actuator("motor").id] = 0.0
+    mujoco.mj_step(model, data, 2000)
+    assert abs(data.qpos[0]) < 1e-6 and abs(data.qvel[0]) < 1e-6
+
+
+# ----------------------------------------------------------------------------------- EMPS data
+
+@pytest.fixture(scope="module")
+def emps():
+    return convert_emps(_need_emps())
+
+
+def test_convert_keeps_the_reference_and_names_the_model(emps):
+    assert {"reference_position_m", "position_m", "drive_force_N"} <= set(emps.columns)
+    assert emps.metadata.model == "emps"
+    # the controller tracks its reference to well under a millimetre
+    error = emps.columns["reference_position_m"] - emps.columns["position_m"]
+    assert np.max(np.abs(error)) < 1e-3
+
+
+def test_the_published_emps_model_in_closed_loop_beats_its_published_simulation(emps):
+    # IDIM-LS values simulated in the scene with the plugin, the controller on the record's
+    # clock: the description's own simulation reaches 5.85 % (force), 0.0138 % (position).
+    replay = prepare_replay(emps, substeps=2)
+    friction = FrictionParameters(law="coulomb", friction_coefficient=20.3935,
+                                  viscous_N_s_per_m=203.5034, force_offset_N=-3.1648)
+    with Replayer(replay) as runner:
+        predicted = runner.run([(replace(replay.rig, mass_kg=95.1089), friction)],
+                               ("velocity_m_per_s",))[0]
+    errors = closed_loop_errors(replay, predicted)
+    assert errors["force_relerr_pct"] < 5.85
+    assert errors["position_relerr_pct"] < 0.0138
+    assert errors["velocity_relerr_pct"] < 1.0
+
+
+# ------------------------------------------------------------------------ identification
+
+def _synthetic_emps_record(tmp_path: Path, seconds: float = 4.0) -> tuple[Path, dict]:
+    """The EMPS scene with known values, driven by a bang-bang-like reference, sampled at 1 kHz
+    with position quantization and force noise."""
+    truth = {"mass_kg": 80.0, "friction_coefficient": 25.0, "viscous_N_s_per_m": 150.0}
+    t = np.arange(int(seconds * 1000)) * 1e-3
+    # from rest, within the controller's range (a jump saturates it for a while)
+    reference = 0.1 * (1 - np.cos(2 * np.pi * t / 2.0)) + \
+        0.02 * (1 - np.cos(2 * np.pi * 1.3 * t))
+    record = Dataset(name="synthetic_emps", columns={
+        "time_s": t, "position_m": np.zeros_like(t), "drive_force_N": np.zeros_like(t),
+        "reference_position_m": reference}, metadata=DatasetMetadata(model="emps"))
+    replay = prepare_replay(record, substeps=4)
+    friction = FrictionParameters(law="coulomb",
+                                  friction_coefficient=truth["friction_coefficient"],
+                                  viscous_N_s_per_m=truth["viscous_N_s_per_m"])
+    with Replayer(replay) as runner:
+        out = runner.run([(replace(replay.rig, mass_kg=truth["mass_kg"]), friction)])[0]
+    rng = np.random.default_rng(7)
+    columns = {"time_s": t, "position_m": np.round(out["position_m"] / 5e-8) * 5e-8,
+               "drive_force_N": out["drive_force_N"] + 0.3 * rng.standard_normal(len(t)),
+               "reference_position_m": reference}
+    meta = DatasetMetadata(model="emps", simulation_timestep_s=1e-3 / 4)
+    path = tmp_path / "synthetic_emps.csv"
+    write_dataset(Dataset(name="synthetic_emps", columns=columns, metadata=meta), path)
+    return path, truth
+
+
+def test_a_machine_record_round_trips_through_its_closed_loop(tmp_path):
+    from vibrofriction.datasets import read_dataset
+    path, truth = _synthetic_emps_record(tmp_path)
+    result = identify_by_simulation(read_dataset(path), law="coulomb", declared=["viscous"])
+    for name, value in truth.items():
+        assert result.final.values[name] == pytest.approx(value, rel=0.01), name
+    assert result.selected == []
+    assert result.closed_loop["final"]["train"]["force_relerr_pct"] < 1.0
+
+
+def test_machine_record_errors_are_clear_and_write_nothing(tmp_path, capsys):
+    t = np.arange(100) * 1e-3
+    columns = {"time_s": t, "position_m": np.zeros_like(t), "drive_force_N": np.zeros_like(t)}
+    unknown = Dataset(name="r", columns={**columns, "reference_position_m": np.zeros_like(t)},
+                      metadata=DatasetMetadata(model="lathe"))
+    with pytest.raises(InputError, match=r"'lathe' names no bundled model; use one of: emps"):
+        prepare_replay(unknown)
+    no_reference = Dataset(name="r", columns=columns, metadata=DatasetMetadata(model="emps"))
+    with pytest.raises(InputError, match="driven by reference_position_m"):
+        prepare_replay(no_reference)
+    path = tmp_path / "no_reference.csv"
+    write_dataset(no_reference, path)
+    before = sorted(p.name for p in tmp_path.iterdir())
+    code = cli.main(["identify", str(path), "--out", str(tmp_path / "out")])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "reference_position_m" in err and "Traceback" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == before
