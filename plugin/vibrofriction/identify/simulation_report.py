@@ -202,9 +202,9 @@ def report_markdown(result: SimIdentification) -> str:
             lines.append(f"| `{name}` | {value:.9g} |")
     lines += ["", "Residual peaks (Hz, " + r.primary + "): " +
               (", ".join(f"{f:.6g}" for f in r.residual_peaks_Hz) or "none"), "",
-              *(["The fitted scene is `fitted_model.xml` (open it with "
-                 "`vibrofriction view` or `python -m mujoco.viewer --mjcf=...` once the plugins "
-                 "are registered).", ""] if _is_machine(r) else
+              *(["The fitted scene is `fitted_model.xml` (load it with "
+                 "`mujoco.MjModel.from_xml_path` after `vibrofriction.load()`).", ""]
+                if _is_machine(r) else
                 ["Run the fitted rig:", "", f"    vibrofriction simulate {set_line(r)}", ""])]
     if replay.lagged_sensor == "dynamometer" and "sensor_lag_s" in r.final.values:
         lines += [f"The fitted sensor lag ({r.final.values['sensor_lag_s']:.6g} s) is the "
