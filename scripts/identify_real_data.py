@@ -84,16 +84,21 @@ def prepare(work: Path) -> dict[str, Path]:
 
 def cases(paths: dict[str, Path]) -> list[dict]:
     e1, e2 = paths["emps_first_half"], paths["emps_second_half"]
+    # The EMPS records name their model, so identify would simulate the closed loop
+    # (scripts/emps_closed_loop.py); this table is the inverse path's.
+    inverse = ["--method", "inverse"]
     out = [
         dict(case="emps_coulomb", source="EMPS", train=e1, held=[e2], law="coulomb",
-             args=[], baseline="Coulomb"),
+             args=inverse, baseline="Coulomb"),
         dict(case="emps_idim", source="EMPS", train=e1, held=[e2], law="coulomb",
-             args=["--with", "viscous,force_offset"], baseline="IDIM-LS: Coulomb + viscous + offset"),
+             args=[*inverse, "--with", "viscous,force_offset"],
+             baseline="IDIM-LS: Coulomb + viscous + offset"),
         dict(case="emps_idim_lowpass", source="EMPS", train=e1, held=[e2], law="coulomb",
-             args=["--with", "viscous,force_offset", "--lowpass", "100"],
+             args=[*inverse, "--with", "viscous,force_offset", "--lowpass", "100"],
              baseline="IDIM-LS, 100 Hz low-pass"),
         dict(case="emps_lugre", source="EMPS", train=e1, held=[e2], law="lugre",
-             args=["--with", "viscous,force_offset"], baseline="LuGre + viscous + offset"),
+             args=[*inverse, "--with", "viscous,force_offset"],
+             baseline="LuGre + viscous + offset"),
         dict(case="damper_1Hz", source="friction damper", train=paths["damper_1Hz"],
              held=[paths["damper_2Hz"]], law="lugre", args=[], baseline="LuGre"),
         dict(case="damper_2Hz", source="friction damper", train=paths["damper_2Hz"],

@@ -170,12 +170,30 @@ def _synthetic_emps_record(tmp_path: Path, seconds: float = 4.0) -> tuple[Path, 
 
 def test_a_machine_record_round_trips_through_its_closed_loop(tmp_path):
     from vibrofriction.datasets import read_dataset
+    from vibrofriction.identify import simulation_report
     path, truth = _synthetic_emps_record(tmp_path)
     result = identify_by_simulation(read_dataset(path), law="coulomb", declared=["viscous"])
     for name, value in truth.items():
         assert result.final.values[name] == pytest.approx(value, rel=0.01), name
     assert result.selected == []
     assert result.closed_loop["final"]["train"]["force_relerr_pct"] < 1.0
+    # the fitted scene written with the report loads and runs the fitted values
+    out = simulation_report.write_report(result, tmp_path / "report", figures=False)
+    model = mujoco.MjModel.from_xml_path(str(out / "fitted_model.xml"))
+    assert model.body("carriage").mass[0] == pytest.approx(result.final.values["mass_kg"])
+    report = json.loads((out / "report.json").read_text())
+    assert report["closed_loop"]["model"] == "emps"
+
+
+def test_a_fitted_scene_at_one_step_a_sample_loads(emps):
+    # MJCF keeps 6 digits of the timestep: 0.00099998... may be written rounded up past the
+    # controller's sample period, which must still load
+    from vibrofriction.identify.machine_replay import MachineReplay
+    replay = prepare_replay(emps, substeps=1)
+    assert isinstance(replay, MachineReplay)
+    xml = replay.spec(replace(replay.rig, mass_kg=95.0),
+                      FrictionParameters(law="coulomb", friction_coefficient=20.0)).to_xml()
+    mujoco.MjModel.from_xml_string(xml)
 
 
 def test_machine_record_errors_are_clear_and_write_nothing(tmp_path, capsys):
@@ -186,8 +204,22 @@ def test_machine_record_errors_are_clear_and_write_nothing(tmp_path, capsys):
     with pytest.raises(InputError, match=r"'lathe' names no bundled model; use one of: emps"):
         prepare_replay(unknown)
     no_reference = Dataset(name="r", columns=columns, metadata=DatasetMetadata(model="emps"))
-    with pytest.raises(InputError, match="driven by reference_position_m"):
+    with pytest.raises(InputError, match="needs reference_position_m"):
         prepare_replay(no_reference)
+    velocity_only = Dataset(name="r", metadata=DatasetMetadata(model="emps"), columns={
+        "time_s": t, "velocity_m_per_s": np.zeros_like(t), "drive_force_N": np.zeros_like(t),
+        "reference_position_m": np.zeros_like(t)})
+    with pytest.raises(InputError, match="needs position_m"):
+        prepare_replay(velocity_only)
+    machine = Dataset(name="m", metadata=DatasetMetadata(model="emps"),
+                      columns={**columns, "reference_position_m": np.zeros_like(t)})
+    with pytest.raises(InputError, match="drive_damping: not an effect of this record's model"):
+        identify_by_simulation(machine, law="coulomb", declared=["drive_damping"])
+    rig_record = Dataset(name="rig", columns=columns, metadata=DatasetMetadata(
+        model="rig", drive_stiffness_N_per_m=1e6, drive_velocity_m_per_s=5e-4))
+    assert type(prepare_replay(rig_record)).__name__ == "RigReplay"  # "rig" is the default
+    with pytest.raises(InputError, match=r"must be of the training record's model \(emps\)"):
+        identify_by_simulation(machine, [rig_record], law="coulomb")
     path = tmp_path / "no_reference.csv"
     write_dataset(no_reference, path)
     before = sorted(p.name for p in tmp_path.iterdir())
@@ -196,3 +228,43 @@ def test_machine_record_errors_are_clear_and_write_nothing(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "reference_position_m" in err and "Traceback" not in err
     assert sorted(p.name for p in tmp_path.iterdir()) == before
+
+
+@pytest.mark.parametrize("unit", ["V", "N"])
+def test_emps_pulses_become_the_force_the_command_shows(tmp_path, unit):
+    """A validation-style .mat: the logged command is the controller law plus pulses; the
+    converter reads their unit from the data."""
+    from scipy.io import savemat
+    from vibrofriction.convert import convert_emps as convert
+    n, T, gtau = 2000, 1e-3, 35.15
+    t = np.arange(n) * T
+    rng = np.random.default_rng(3)
+    q = 0.1 * (1 - np.cos(2 * np.pi * t)) + 1e-6 * rng.standard_normal(n)
+    r = q + 1e-4 * np.sin(2 * np.pi * 3 * t)
+    filtered = np.r_[q[0], 0.5 * (q[1:] + q[:-1])]
+    law = 243.45 * (160.18 * (r - q) - np.r_[0.0, np.diff(filtered) / T])
+    pulses_V = 5.0 * (np.sin(2 * np.pi * 2 * t) > 0)
+    pulses = pulses_V if unit == "V" else gtau * pulses_V
+    path = tmp_path / "pulses.mat"
+    savemat(path, {"t": t[:, None], "qm": q[:, None], "qg": r[:, None],
+                   "vir": (law + pulses_V)[:, None], "pulses_N": pulses[:, None],
+                   "gtau": gtau, "kp": 160.18, "kv": 243.45})
+    record = convert(path)
+    np.testing.assert_allclose(record.columns["feedforward_force_N"], gtau * pulses_V)
+
+
+def test_a_record_starting_in_motion_starts_its_controller_in_motion(emps):
+    # the second half of the record starts at -43 mm/s: a controller filter started at rest
+    # would command hundreds of N for a sample or two
+    n = emps.n_rows // 2
+    half = Dataset(name="second_half", metadata=emps.metadata,
+                   columns={c: np.asarray(v)[n:] for c, v in emps.columns.items()})
+    replay = prepare_replay(half, substeps=2)
+    assert abs(replay.initial_velocity_m_per_s) > 0.02
+    friction = FrictionParameters(law="coulomb", friction_coefficient=20.3935,
+                                  viscous_N_s_per_m=203.5034, force_offset_N=-3.1648)
+    with Replayer(replay) as runner:
+        out = runner.run([(replace(replay.rig, mass_kg=95.1089), friction)])[0]
+    error = out["drive_force_N"] - replay.measured["drive_force_N"]
+    first, rest = (float(np.sqrt(np.mean(e ** 2))) for e in (error[:50], error[50:]))
+    assert first < 4 * rest

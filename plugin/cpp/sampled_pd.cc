@@ -48,7 +48,14 @@ bool SampledPdConfig::FromModel(const mjModel* m, int instance, SampledPdConfig*
   if (c.saturation < 0) {
     return RejectAttribute(kPlugin, kSaturation, c.saturation, "must be >= 0 (0: no limit)");
   }
-  if (c.sample_period < m->opt.timestep) {
+  if (m->opt.integrator == mjINT_RK4) {
+    mju_warning("%s: the RK4 integrator evaluates the controller at intermediate stages; use "
+                "integrator=\"Euler\" or \"implicitfast\" (the controller samples once a step)",
+                kPlugin);
+    return false;
+  }
+  // (a relative tolerance: a timestep written to MJCF with 6 digits may round up past it)
+  if (c.sample_period < m->opt.timestep * (1 - 1e-5)) {
     return RejectAttribute(kPlugin, kSamplePeriod, c.sample_period,
                            "must be at least the model's timestep (s), e.g. 1e-3");
   }
@@ -99,23 +106,27 @@ void SampledPd::Sampled(const mjModel* m, const mjData* d, const mjtNum* state, 
 
 void SampledPd::Compute(const mjModel* m, mjData* d, int instance) {
   const int a = config_->actuator;
+  computed_ = false;
   if (!config_.Refresh(m, instance)) {
     d->actuator_force[a] = 0;
     return;
   }
-  mjtNum next[kStateSize];
-  Sampled(m, d, d->plugin_state + m->plugin_stateadr[instance], d->time, next);
-  d->actuator_force[a] = Force(next[kHeld]);
+  Sampled(m, d, d->plugin_state + m->plugin_stateadr[instance], d->time, next_);
+  computed_ = true;
+  d->actuator_force[a] = Force(next_[kHeld]);
 }
 
 void SampledPd::Advance(const mjModel* m, mjData* d, int instance) {
   if (!config_.Refresh(m, instance, /*later_in_step=*/true)) return;
   mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
-  mjtNum next[kStateSize];
-  // actuator_length and ctrl are still the step's (integration does not update them); time
-  // has been advanced by one step.
-  Sampled(m, d, state, d->time - m->opt.timestep, next);
-  mju_copy(state, next, kStateSize);
+  if (!computed_) {
+    // no compute this step (should not happen in mj_step): evaluate it here; actuator_length
+    // and ctrl are still the step's, time has been advanced by one step
+    Sampled(m, d, state, d->time - m->opt.timestep, next_);
+  }
+  // the state that gave this step's force, exactly (no second decision on "due")
+  mju_copy(state, next_, kStateSize);
+  computed_ = false;
 }
 
 void SampledPd::RegisterPlugin() {

@@ -51,6 +51,9 @@ class SampledPd {
                mjtNum* next) const;
   double Force(double command) const;
   CachedConfig<SampledPdConfig> config_;
+  // The state after this step's sample, as Compute applied it; Advance commits it.
+  mjtNum next_[kStateSize] = {};
+  bool computed_ = false;
 };
 
 }  // namespace vibrofriction

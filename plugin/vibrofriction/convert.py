@@ -62,9 +62,9 @@ def convert_emps(mat_path: str | os.PathLike) -> Dataset:
     """``DATA_EMPS.mat`` (or ``DATA_EMPS_PULSES.mat``) -> a record of the EMPS closed loop.
 
     position_m = qm, reference_position_m = qg (the controller's input), drive_force_N =
-    gtau * vir (the total motor force), and for the validation run feedforward_force_N =
-    gtau * pulses_N (the pulses are volts added to the controller's command, so they are
-    already inside vir). The sidecar names the model (``"model": "emps"``): identification
+    gtau * vir (the total motor force), and for the validation run feedforward_force_N, the
+    pulses as a force at the drive (added to the controller's command, so already inside vir;
+    their unit, V or N, read from the data: ``_emps_pulse_force``). The sidecar names the model (``"model": "emps"``): identification
     simulates the closed loop of ``mjcf_models/emps`` driven by the reference.
     """
     from scipy.io import loadmat  # scipy only for this converter
@@ -84,10 +84,32 @@ def convert_emps(mat_path: str | os.PathLike) -> Dataset:
     columns = {"time_s": time_s, "position_m": raw["qm"], "reference_position_m": raw["qg"],
                "drive_force_N": gtau_N_per_V * raw["vir"]}
     if "pulses_N" in raw:
-        columns["feedforward_force_N"] = gtau_N_per_V * raw["pulses_N"]
+        columns["feedforward_force_N"] = _emps_pulse_force(mat, raw, gtau_N_per_V, path)
     metadata = DatasetMetadata(description=EMPS_DESCRIPTION, sample_rate_Hz=EMPS_SAMPLE_RATE_HZ,
                                source=EMPS_SOURCE, model="emps")
     return Dataset(name=path.stem, columns=columns, metadata=metadata, source_path=path)
+
+
+def _emps_pulse_force(mat: dict[str, Any], raw: dict[str, np.ndarray], gtau_N_per_V: float,
+                      path: Path) -> np.ndarray:
+    """The pulses as a force at the drive. The logged command is the controller's law plus the
+    pulses, so the data say their unit: volts (a 0/5 V square wave, force g_tau pulses) or
+    newtons (force = pulses). The unit whose pulses leave the smaller remainder of
+    vir - law(qm, qg) is taken; neither explaining it is an error."""
+    kp, kv = _mat_scalar(mat, "kp", path), _mat_scalar(mat, "kv", path)
+    t, q, r, vir = raw["t"], raw["qm"], raw["qg"], raw["vir"]
+    T = float((t[-1] - t[0]) / (len(t) - 1))
+    filtered = np.r_[q[0], 0.5 * (q[1:] + q[:-1])]
+    law = kv * (kp * (r - q) - np.r_[0.0, np.diff(filtered) / T])
+    added = (vir - law)[10:]
+    pulses = raw["pulses_N"][10:]
+    volts = float(np.sqrt(np.mean((added - pulses) ** 2)))
+    newtons = float(np.sqrt(np.mean((added - pulses / gtau_N_per_V) ** 2)))
+    if min(volts, newtons) > 0.5 * float(np.sqrt(np.mean(added ** 2))):
+        raise DatasetError(f"{path}: pulses_N does not explain the command beyond the "
+                           f"controller law (rms remainder {min(volts, newtons):.3g} V); "
+                           "the record is not the EMPS closed loop this converter knows")
+    return gtau_N_per_V * raw["pulses_N"] if volts <= newtons else raw["pulses_N"].copy()
 
 
 def _mat_value(mat: dict[str, Any], key: str, path: Path) -> np.ndarray:

@@ -132,7 +132,7 @@ def _method(requested: str, train: Dataset) -> tuple[str, str]:
         return "inverse", "asked for with --method inverse"
     if requested == "simulation":
         return "simulation", "asked for with --method simulation"
-    if meta.model is not None:
+    if meta.model not in (None, "rig"):
         return "simulation", (f"the sidecar names the model ({meta.model!r}): that MuJoCo "
                               "scene, in closed loop, is fitted to what the record measured")
     if rig_record:

@@ -56,6 +56,7 @@ NOISE_FLOOR_OF_RANGE = 1e-4
 VIBRATION_HARMONICS = 3
 ENVELOPE_BANDWIDTH = 0.25
 _CASES_PER_ROLLOUT = 16
+RIG_MODEL = "rig"  # the sidecar's "model" of a rig record (the default when absent)
 # Unit normal load when the record gives none: the fitted coefficient is then the level in N.
 UNIT_NORMAL_FORCE_N = 1.0
 _ELASTIC_FRACTION = 0.9  # initial deflection at most this fraction of the sliding deflection
@@ -249,7 +250,7 @@ def _channels(model: mujoco.MjModel, rig: RigParameters, sensordata: np.ndarray,
 def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigReplay:
     """Set a record up for replay in the rig (or in the machine its sidecar's ``model``
     names); InputError naming what is missing otherwise."""
-    if dataset.metadata.model is not None:
+    if dataset.metadata.model not in (None, RIG_MODEL):
         from .machine_replay import prepare_machine_replay
         return prepare_machine_replay(dataset, substeps=substeps)
     where = str(dataset.source_path or dataset.name)

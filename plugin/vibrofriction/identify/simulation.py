@@ -278,10 +278,19 @@ def identify_by_simulation(train: Dataset, validation: Sequence[Dataset] = (), *
     replay = prepare_replay(train, substeps=substeps)
     held = [prepare_replay(d, substeps=replay.substeps) for d in validation]
     for h in held:
+        if _model_name(h) != _model_name(replay):
+            raise InputError(f"{h.name}: a held-out record must be of the training record's "
+                             f"model ({_model_name(replay)}), not of {_model_name(h)}; check "
+                             "the sidecars' 'model'")
         missing = set(replay.channels) - set(h.channels)
         if missing:
             raise InputError(f"{h.name}: held-out record lacks {', '.join(sorted(missing))}, "
                              f"which the training record {replay.name} measures")
+    refused = {e: why for e, why in getattr(replay, "not_applicable", {}).items()
+               if e in declared}
+    if refused:
+        raise InputError("--with " + "; ".join(f"{e}: not an effect of this record's model "
+                                               f"({why})" for e, why in refused.items()))
     refine = substeps is None and not replay.timestep_from_record
     problems: list[SimulationProblem] = []  # every one made is closed, whatever happens
 
@@ -314,6 +323,12 @@ def identify_by_simulation(train: Dataset, validation: Sequence[Dataset] = (), *
     finally:
         for made in problems:
             made.close()
+
+
+def _model_name(replay) -> str:
+    """The model a replay runs: a bundled machine's folder name, else the rig."""
+    scene = getattr(replay, "scene", None)
+    return scene.path.parent.name if scene is not None else "rig"
 
 
 class _Unresolved(Exception):
