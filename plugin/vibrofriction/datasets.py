@@ -39,6 +39,8 @@ COLUMNS = (
     "feedforward_force_N",  # a known force added at the drive (part of drive_force_N)
     "external_force_N",  # a measured force on the body that does not pass through the drive
 )
+# Columns that drive a machine model (sidecar "model"), not written by the rig's simulate.
+MACHINE_INPUT_COLUMNS = ("reference_position_m", "feedforward_force_N", "external_force_N")
 # Each group needs at least one of its columns.
 REQUIRED_GROUPS = (
     ("time_s",),
@@ -540,6 +542,7 @@ def _show(value: Any) -> str:
 
 __all__ = [
     "COLUMNS",
+    "MACHINE_INPUT_COLUMNS",
     "Dataset",
     "DatasetError",
     "DatasetMetadata",
