@@ -15,13 +15,13 @@ from vibrofriction import rig as rig_module
 from vibrofriction.convert import convert_emps
 from vibrofriction.datasets import Dataset, DatasetMetadata, write_dataset
 from vibrofriction.errors import InputError
-from vibrofriction.identify.machine_replay import MACHINES, closed_loop_errors
+from vibrofriction.identify.machine_replay import BUNDLED, closed_loop_errors
 from vibrofriction.identify.replay import Replayer, prepare_replay
 from vibrofriction.identify.simulation import identify_by_simulation
 from vibrofriction.params import FrictionParameters
 
 EMPS_MAT = Path(__file__).resolve().parents[2] / "shared" / "data" / "emps" / "DATA_EMPS.mat"
-EMPS_XML = MACHINES["emps"].path
+EMPS_XML = BUNDLED["emps"]
 CONTROLLER = {"position_gain": 160.18, "velocity_gain": 243.45, "drive_gain": 35.15,
               "saturation": 10.0, "sample_period": 1e-3}
 
@@ -201,7 +201,7 @@ def test_machine_record_errors_are_clear_and_write_nothing(tmp_path, capsys):
     columns = {"time_s": t, "position_m": np.zeros_like(t), "drive_force_N": np.zeros_like(t)}
     unknown = Dataset(name="r", columns={**columns, "reference_position_m": np.zeros_like(t)},
                       metadata=DatasetMetadata(model="lathe"))
-    with pytest.raises(InputError, match=r"'lathe' names no bundled model; use one of: emps"):
+    with pytest.raises(InputError, match=r"model 'lathe' names no bundled model and no .xml"):
         prepare_replay(unknown)
     no_reference = Dataset(name="r", columns=columns, metadata=DatasetMetadata(model="emps"))
     with pytest.raises(InputError, match="needs reference_position_m"):
@@ -268,3 +268,84 @@ def test_a_record_starting_in_motion_starts_its_controller_in_motion(emps):
     error = out["drive_force_N"] - replay.measured["drive_force_N"]
     first, rest = (float(np.sqrt(np.mean(e ** 2))) for e in (error[:50], error[50:]))
     assert first < 4 * rest
+
+
+USER_SCENE = """
+<mujoco model="pushed block">
+  <option timestep="2.5e-4" integrator="Euler"/>
+  <extension><plugin plugin="vibrofriction.friction"><instance name="guide_friction">
+    <config key="law" value="coulomb"/><config key="normal" value="1"/>
+    <config key="mu" value="1"/>
+  </instance></plugin></extension>
+  <custom>
+    <text name="vibrofriction:joint" data="slide"/>
+    <text name="vibrofriction:body" data="block"/>
+    <text name="vibrofriction:input:drive_force_N" data="push"/>
+    <text name="vibrofriction:output:position_m" data="x"/>
+  </custom>
+  <worldbody><body name="block"><joint name="slide" type="slide" axis="1 0 0"/>
+    <inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/></body></worldbody>
+  <actuator>
+    <motor name="push" joint="slide"/>
+    <plugin name="friction" joint="slide" instance="guide_friction" actdim="1"/>
+  </actuator>
+  <sensor><jointpos name="x" joint="slide"/></sensor>
+</mujoco>
+"""
+
+
+def test_identify_against_a_users_scene_driven_by_its_measured_force(tmp_path, capsys):
+    """--model SCENE.xml: a block pushed by a measured force (an input of the scene), its
+    position measured; mass, Coulomb level and viscous come back from the position alone."""
+    from vibrofriction.identify.machine_replay import MachineScene
+    scene = tmp_path / "pushed_block.xml"
+    scene.write_text(USER_SCENE)
+    truth = {"mass_kg": 2.0, "friction_coefficient": 3.0, "viscous_N_s_per_m": 4.0}
+    t = np.arange(3000) * 1e-3
+    push = 5.0 * np.sin(2 * np.pi * 1.0 * t) + 1.0 * np.sin(2 * np.pi * 3.7 * t)
+    columns = {"time_s": t, "position_m": np.zeros_like(t), "drive_force_N": push}
+    meta = DatasetMetadata(model=str(scene), simulation_timestep_s=2.5e-4)
+    replay = prepare_replay(Dataset(name="b", columns=columns, metadata=meta))
+    assert replay.scene == MachineScene.from_file(scene) and replay.channels == ("position_m",)
+    friction = FrictionParameters(law="coulomb",
+                                  friction_coefficient=truth["friction_coefficient"],
+                                  viscous_N_s_per_m=truth["viscous_N_s_per_m"])
+    with Replayer(replay) as runner:
+        out = runner.run([(replace(replay.rig, mass_kg=truth["mass_kg"]), friction)])[0]
+    assert np.ptp(out["position_m"]) > 0.02  # it slides, and sticks at the reversals
+    rng = np.random.default_rng(11)
+    columns["position_m"] = out["position_m"] + 1e-6 * rng.standard_normal(len(t))
+    path = tmp_path / "pushed.csv"
+    write_dataset(Dataset(name="pushed", columns=columns, metadata=DatasetMetadata(
+        simulation_timestep_s=2.5e-4)), path)
+    code = cli.main(["identify", str(path), "--model", str(scene), "--law", "coulomb",
+                     "--with", "viscous", "--out", str(tmp_path / "out"), "--no-figures"])
+    assert code == 0, capsys.readouterr().err
+    report = json.loads((tmp_path / "out" / "report.json").read_text())
+    fitted = report["final"]["parameters"]
+    for name, value in truth.items():
+        assert fitted[name] == pytest.approx(value, rel=0.01), name
+    assert report["selected_effects"] == []
+    # the fitted scene is the user's, values changed, no probe sensors added
+    xml = (tmp_path / "out" / "fitted_model.xml").read_text()
+    assert "vibrofriction_position" not in xml and "guide_friction" in xml
+
+
+def test_a_users_scene_without_its_mapping_is_a_clear_error(tmp_path):
+    from vibrofriction.identify.machine_replay import machine
+    scene = tmp_path / "bare.xml"
+    scene.write_text(USER_SCENE.replace('<text name="vibrofriction:joint" data="slide"/>', ""))
+    with pytest.raises(InputError, match='say which joint.*vibrofriction:joint'):
+        machine(str(scene))
+    scene.write_text(USER_SCENE.replace('data="push"', 'data="no_such_actuator"'))
+    with pytest.raises(InputError, match="'no_such_actuator', which is no actuator"):
+        machine(str(scene))
+    with pytest.raises(InputError, match="does not exist"):
+        machine(str(tmp_path / "missing.xml"))
+    t = np.arange(100) * 1e-3
+    scene.write_text(USER_SCENE)
+    record = Dataset(name="r", metadata=DatasetMetadata(model=str(scene)), columns={
+        "time_s": t, "position_m": np.zeros_like(t), "drive_force_N": np.zeros_like(t),
+        "reference_position_m": np.zeros_like(t)})
+    with pytest.raises(InputError, match="has reference_position_m, which the model"):
+        prepare_replay(record)

@@ -60,6 +60,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         metavar="NAME=VALUE",
                         help="supply or override a sidecar value of DATA (and of every "
                              f"--validate record): {', '.join(_METADATA_KEYS)}")
+    parser.add_argument("--model", default=None, metavar="MODEL",
+                        help="the model the records are replayed in (overrides the sidecars' "
+                             "'model'): a bundled machine (emps) or an MJCF scene whose "
+                             "<custom> texts map the record onto it (see the README, 'Your own "
+                             "scene'); 'rig' for the vibrating rig")
     parser.add_argument("--method", choices=("auto", "simulation", "inverse"), default="auto",
                         help="simulation: fit the MuJoCo rig scene with the plugin, driven by "
                              "the record's inputs, to every measured channel (output error; "
@@ -68,8 +73,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "e.g. emps: that machine in closed loop). inverse: the law driven "
                              "by the measured, differentiated motion (fast; for records with "
                              "no simulator model). auto (default): simulation where the "
-                             "record is a rig record or names its model, else inverse; the report says which ran "
-                             "and why")
+                             "record is a rig record or names its model, else inverse; the "
+                             "report says which ran and why")
     parser.add_argument("--timestep", type=float, default=1e-6, metavar="S",
                         help="inverse path: timestep of the MuJoCo rig replay of the final "
                              "model (records of a spring-driven rig only; default 1e-6); the "
@@ -94,7 +99,11 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--timestep {args.timestep} must be a positive number of seconds")
     if args.json_path is not None:
         _check_json_target(args.json_path)
-    overrides = _metadata_overrides(args.overrides)
+    overrides: dict = _metadata_overrides(args.overrides)
+    if args.model is not None:
+        # a file named on the command line is relative to the current folder
+        overrides["model"] = str(Path(args.model).resolve()) if \
+            args.model.endswith(".xml") else args.model
     train = _with_metadata(read_dataset(args.data), overrides)
     held = [_with_metadata(read_dataset(path), overrides) for path in args.validate]
     out = args.out or Path(f"identify_{train.name}")

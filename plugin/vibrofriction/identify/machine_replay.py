@@ -38,29 +38,122 @@ from ..errors import InputError
 from ..params import FrictionParameters, RigParameters
 
 
+# A scene says how a record maps onto it in MJCF custom text elements (kept in the model):
+#   <custom>
+#     <text name="vibrofriction:joint" data="carriage"/>   joint whose state the record starts
+#     <text name="vibrofriction:body" data="carriage"/>    body whose mass is fitted
+#     <text name="vibrofriction:input:reference_position_m" data="motor"/>   column -> actuator ctrl
+#     <text name="vibrofriction:output:position_m" data="position"/>        column -> sensor
+#     <text name="vibrofriction:output:drive_force_N" data="motor_force + feedforward_force"/>
+#   </custom>
+# The friction element is the actuator named "friction" (a vibrofriction.friction instance); a
+# vibrofriction.sampled_pd controller, if any, is found by its plugin.
+TEXT_PREFIX = "vibrofriction:"
+# (drive_force_N is an input of a scene driven open loop by its measured drive force, else an
+# output: the controller's force)
+INPUT_COLUMNS = ("reference_position_m", "feedforward_force_N", "external_force_N",
+                 "drive_force_N")
+OUTPUT_CHANNELS = ("position_m", "velocity_m_per_s", "drive_force_N", "friction_force_N")
+FRICTION_ACTUATOR = "friction"
+# sensors the replay adds to read the joint and the friction element
+_PROBE_POSITION, _PROBE_VELOCITY, _PROBE_FRICTION = (
+    "vibrofriction_position", "vibrofriction_velocity", "vibrofriction_friction")
+
+
 @dataclass(frozen=True)
 class MachineScene:
-    """A bundled machine model: its file and the names identification relies on."""
+    """A machine model: its file and the names identification relies on (read from the
+    scene's own ``vibrofriction:`` custom texts)."""
 
     path: Path
+    name: str
     body: str  # the moving body whose mass is fitted
     joint: str
-    controller: str  # its vibrofriction.sampled_pd instance
+    controller: str | None  # its vibrofriction.sampled_pd instance, if it has one
+    controller_input: str | None  # the column the controller's actuator takes as ctrl
     inputs: dict[str, str]  # record column -> actuator whose ctrl it is
-    required_inputs: tuple[str, ...]
+    outputs: dict[str, tuple[str, ...]]  # record column -> sensors whose sum predicts it
+    friction_instance: str
     description: str
 
+    @classmethod
+    def from_file(cls, path: Path, name: str | None = None) -> "MachineScene":
+        """Read a scene's mapping; InputError naming what is missing and how to add it."""
+        where = str(path)
+        if not Path(path).is_file():
+            raise InputError(f"model {where} does not exist; name a bundled model "
+                             f"({', '.join(sorted(BUNDLED))}) or an MJCF file")
+        rig_module.load()
+        try:
+            spec = mujoco.MjSpec.from_file(str(path))
+            model = spec.compile()
+        except Exception as exc:  # MuJoCo's parse and compile errors
+            raise InputError(f"model {where} does not load: {exc}") from None
+        texts = {t.name[len(TEXT_PREFIX):]: t.data.strip() for t in spec.texts
+                 if t.name.startswith(TEXT_PREFIX)}
 
-MACHINES = {
-    "emps": MachineScene(
-        path=rig_module.MJCF_DIR / "emps" / "emps.xml", body="carriage", joint="carriage",
-        controller="controller",
-        inputs={"reference_position_m": "motor", "feedforward_force_N": "feedforward",
-                "external_force_N": "external"},
-        required_inputs=("reference_position_m", "position_m"),
-        description="EMPS prismatic joint under its 1 kHz PD controller"),
-}
-OUTPUT_CHANNELS = ("position_m", "velocity_m_per_s", "drive_force_N", "friction_force_N")
+        def named(kind: str, obj: mujoco.mjtObj, value: str) -> str:
+            if mujoco.mj_name2id(model, obj, value) < 0:
+                raise InputError(f"model {where}: {TEXT_PREFIX}{kind} names {value!r}, which "
+                                 f"is no {obj.name[6:].lower()} of the model")
+            return value
+
+        for key in ("joint", "body"):
+            if key not in texts:
+                raise InputError(
+                    f"model {where}: say which {key} the record's motion is, e.g. <custom><text "
+                    f"name=\"{TEXT_PREFIX}{key}\" data=\"NAME\"/></custom>")
+        joint = named("joint", mujoco.mjtObj.mjOBJ_JOINT, texts["joint"])
+        body = named("body", mujoco.mjtObj.mjOBJ_BODY, texts["body"])
+        inputs, outputs = {}, {}
+        for key, value in texts.items():
+            kind, _, column = key.partition(":")
+            if kind == "input":
+                if column not in INPUT_COLUMNS:
+                    raise InputError(f"model {where}: {TEXT_PREFIX}{key}: {column!r} is not an "
+                                     f"input column; use one of {', '.join(INPUT_COLUMNS)}")
+                inputs[column] = named(key, mujoco.mjtObj.mjOBJ_ACTUATOR, value)
+            elif kind == "output":
+                if column not in OUTPUT_CHANNELS:
+                    raise InputError(f"model {where}: {TEXT_PREFIX}{key}: {column!r} is not an "
+                                     f"output column; use one of {', '.join(OUTPUT_CHANNELS)}")
+                outputs[column] = tuple(named(key, mujoco.mjtObj.mjOBJ_SENSOR, v.strip())
+                                        for v in value.split("+"))
+        friction = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, FRICTION_ACTUATOR)
+        plugin = int(model.actuator_plugin[friction]) if friction >= 0 else -1
+        if plugin < 0:
+            raise InputError(f"model {where}: no actuator named {FRICTION_ACTUATOR!r} backed by a "
+                             "vibrofriction.friction instance; the friction to identify is that "
+                             "element")
+        controller = controller_input = None
+        for i in range(model.nu):
+            p = int(model.actuator_plugin[i])
+            if p >= 0 and _plugin_kind(spec, model, p) == "vibrofriction.sampled_pd":
+                controller = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_PLUGIN, p)
+                actuator = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, i)
+                controller_input = next((c for c, a in inputs.items() if a == actuator), None)
+        return cls(path=Path(path), name=name or Path(path).stem, body=body, joint=joint,
+                   controller=controller, controller_input=controller_input, inputs=inputs,
+                   outputs=outputs,
+                   friction_instance=mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_PLUGIN, plugin),
+                   description=texts.get("description", spec.modelname or Path(path).stem))
+
+    @property
+    def required_inputs(self) -> tuple[str, ...]:
+        """The controller's reference and the position the state starts from; force inputs
+        left out are zero."""
+        return tuple(c for c in (self.controller_input,) if c) + ("position_m",)
+
+
+def _plugin_kind(spec: mujoco.MjSpec, model: mujoco.MjModel, plugin_id: int) -> str:
+    name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_PLUGIN, plugin_id)
+    for p in spec.plugins:
+        if p.name == name:
+            return p.plugin_name
+    return ""
+
+
+BUNDLED = {"emps": rig_module.MJCF_DIR / "emps" / "emps.xml"}
 # Effects a machine record cannot have: no drive spring, the drive force is a logged command.
 NOT_APPLICABLE = {
     "drive_damping": "a machine has no drive spring (its damping is viscous friction)",
@@ -70,13 +163,19 @@ NOT_APPLICABLE = {
 _ELASTIC_FRACTION = 0.9
 
 
-def machine(name: str, where: str = "") -> MachineScene:
-    """The bundled machine named by a sidecar's ``model``; InputError listing them otherwise."""
-    if name not in MACHINES:
-        raise InputError(f"{where + ': ' if where else ''}sidecar key 'model' = {name!r} names "
-                         f"no bundled model; use one of: {', '.join(sorted(MACHINES))} (or "
-                         "leave it out for the vibrating rig)")
-    return MACHINES[name]
+def machine(model: str, where: str = "", base: Path | None = None) -> MachineScene:
+    """The machine a sidecar's (or --model's) ``model`` names: a bundled one, or an MJCF file
+    (relative to ``base``, the record's folder); InputError saying which exist otherwise."""
+    if model in BUNDLED:
+        return MachineScene.from_file(BUNDLED[model], model)
+    if model.endswith(".xml"):
+        path = Path(model)
+        if not path.is_absolute() and base is not None and not path.is_file():
+            path = base / path
+        return MachineScene.from_file(path)
+    raise InputError(f"{where + ': ' if where else ''}model {model!r} names no bundled model "
+                     f"and no .xml file; use one of: {', '.join(sorted(BUNDLED))}, an MJCF "
+                     "file, or leave it out for the vibrating rig")
 
 
 @dataclass(frozen=True, eq=False)
@@ -126,23 +225,37 @@ class MachineReplay:
     def model(self, rig: RigParameters, friction: FrictionParameters) -> mujoco.MjModel:
         return self.spec(rig, friction).compile()
 
-    def spec(self, rig: RigParameters, friction: FrictionParameters) -> mujoco.MjSpec:
-        """The machine scene with these values (``to_xml()`` writes the fitted scene)."""
+    def spec(self, rig: RigParameters, friction: FrictionParameters,
+             probes: bool = True) -> mujoco.MjSpec:
+        """The machine scene with these values (``probes``: with the sensors identification
+        reads; without, ``to_xml()`` writes the fitted scene as the user's, values changed)."""
         rig_module.load()
         friction.validate()
-        spec = mujoco.MjSpec.from_file(str(self.scene.path))
+        scene = self.scene
+        spec = mujoco.MjSpec.from_file(str(scene.path))
         spec.option.timestep = self.timestep_s
-        spec.body(self.scene.body).mass = rig.mass_kg
-        config = rig_module.friction_config(rig, friction)
+        spec.body(scene.body).mass = rig.mass_kg
+        config = {**next(p for p in spec.plugins if p.name == scene.friction_instance).config,
+                  **rig_module.friction_config(rig, friction)}
         config["modulation_frequency"] = repr(float(
             friction.normal_force_modulation_frequency_Hz))
-        rig_module.set_plugin_config(spec, "friction", config)
-        # The controller samples every `substeps` steps exactly: its period is the record's
-        # sample interval, the one the timestep divides (a period that is not a whole number
-        # of steps slips against the record's samples within seconds).
-        controller = next(p for p in spec.plugins if p.name == self.scene.controller)
-        rig_module.set_plugin_config(spec, self.scene.controller, {
-            **dict(controller.config), "sample_period": repr(self.sample_interval_s)})
+        rig_module.set_plugin_config(spec, scene.friction_instance, config)
+        if scene.controller is not None:
+            # The controller samples every `substeps` steps exactly: its period is the record's
+            # sample interval, the one the timestep divides (a period that is not a whole
+            # number of steps slips against the record's samples within seconds).
+            controller = next(p for p in spec.plugins if p.name == scene.controller)
+            rig_module.set_plugin_config(spec, scene.controller, {
+                **dict(controller.config), "sample_period": repr(self.sample_interval_s)})
+        if probes:
+            for name, kind, objtype, target in (
+                    (_PROBE_POSITION, mujoco.mjtSensor.mjSENS_JOINTPOS,
+                     mujoco.mjtObj.mjOBJ_JOINT, scene.joint),
+                    (_PROBE_VELOCITY, mujoco.mjtSensor.mjSENS_JOINTVEL,
+                     mujoco.mjtObj.mjOBJ_JOINT, scene.joint),
+                    (_PROBE_FRICTION, mujoco.mjtSensor.mjSENS_ACTUATORFRC,
+                     mujoco.mjtObj.mjOBJ_ACTUATOR, FRICTION_ACTUATOR)):
+                spec.add_sensor(name=name, type=kind, objtype=objtype, objname=target)
         return spec
 
     def initial_state(self, model: mujoco.MjModel, friction: FrictionParameters,
@@ -153,7 +266,8 @@ class MachineReplay:
         data.qvel[joint.dofadr[0]] = self.initial_velocity_m_per_s
         # The controller as it was running when the record starts: its filter on the motion
         # the first samples show (q_{-1} = q_0 - v_0 T), its next sample now.
-        controller = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_PLUGIN, self.scene.controller)
+        controller = -1 if self.scene.controller is None else \
+            mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_PLUGIN, self.scene.controller)
         if controller >= 0:
             T, q0, v0 = self.sample_interval_s, self.initial_position_m, \
                 self.initial_velocity_m_per_s
@@ -164,7 +278,7 @@ class MachineReplay:
         if friction.law != "coulomb" and model.na:
             bound = _ELASTIC_FRACTION * friction.friction_coefficient * self.rig.normal_force_N
             force = min(max(self.initial_friction_N, -bound), bound)
-            data.act[model.actuator("friction").actadr] = \
+            data.act[model.actuator(FRICTION_ACTUATOR).actadr] = \
                 force / friction.contact_stiffness_N_per_m
         kind = mujoco.mjtState.mjSTATE_FULLPHYSICS
         state = np.empty(mujoco.mj_stateSize(model, kind))
@@ -176,17 +290,18 @@ class MachineReplay:
         def sensor(name: str) -> np.ndarray:
             return rig_module.sensor_columns(model, sensordata, name)
 
+        mapped = self.scene.outputs
         out = {}
         for name in names:
-            if name in ("position_m", "relative_position_m"):
-                out[name] = sensor("position")
+            if name in mapped:
+                out[name] = sum(sensor(n) for n in mapped[name])
+            elif name in ("position_m", "relative_position_m"):
+                out[name] = sensor(_PROBE_POSITION)
             elif name in ("velocity_m_per_s", "relative_velocity_m_per_s"):
-                out[name] = sensor("velocity")
-            elif name == "drive_force_N":
-                out[name] = sensor("motor_force") + sensor("feedforward_force")
+                out[name] = sensor(_PROBE_VELOCITY)
             elif name == "friction_force_N":
-                out[name] = sensor("friction_state")[:, 4]
-            else:  # pragma: no cover - a programming error
+                out[name] = -sensor(_PROBE_FRICTION)  # the element applies -F_F
+            else:  # prepare_machine_replay refuses a measured channel the scene cannot give
                 raise KeyError(name)
         return out
 
@@ -245,7 +360,7 @@ def _sample_interval(time_s: np.ndarray) -> float:
 def _control(scene: MachineScene, inputs: dict[str, np.ndarray], n: int,
              substeps: int) -> np.ndarray:
     rig_module.load()
-    model = mujoco.MjModel.from_xml_path(str(scene.path))
+    model = mujoco.MjModel.from_xml_path(str(scene.path))  # (actuator ids only)
     nstep = (n - 1) * substeps + 1
     control = np.zeros((nstep, model.nu))
     sample = np.minimum(np.arange(nstep) // substeps, n - 1)  # zero-order hold
@@ -258,8 +373,20 @@ def _control(scene: MachineScene, inputs: dict[str, np.ndarray], n: int,
 def prepare_machine_replay(dataset: Dataset, *, substeps: int | None = None) -> MachineReplay:
     """Set a record up for closed-loop replay in the machine its sidecar names."""
     where = str(dataset.source_path or dataset.name)
-    scene = machine(str(dataset.metadata.model), where)
+    base = dataset.source_path.parent if dataset.source_path is not None else None
+    scene = machine(str(dataset.metadata.model), where, base)
     columns = dataset.columns
+    for column in INPUT_COLUMNS:
+        if column in columns and column not in scene.inputs and column not in scene.outputs:
+            raise InputError(f"{where}: the record has {column}, which the model {scene.name} "
+                             f"does not take; map it to an actuator: <custom><text name=\""
+                             f"{TEXT_PREFIX}input:{column}\" data=\"ACTUATOR\"/></custom>")
+    if "drive_force_N" in columns and "drive_force_N" not in scene.outputs and \
+            "drive_force_N" not in scene.inputs:
+        raise InputError(f"{where}: the record measures drive_force_N, which the model "
+                         f"{scene.name} does not predict; name the sensors whose sum it is: "
+                         f"<custom><text name=\"{TEXT_PREFIX}output:drive_force_N\" "
+                         "data=\"SENSOR + SENSOR\"/></custom>")
     missing = [c for c in scene.required_inputs if c not in columns]
     if missing:
         raise InputError(f"{where}: the {dataset.metadata.model} model needs "
@@ -274,10 +401,11 @@ def prepare_machine_replay(dataset: Dataset, *, substeps: int | None = None) -> 
         raise InputError(f"{where}: the replay needs uniformly sampled data (time steps from "
                          f"{dt.min():.6g} to {dt.max():.6g} s); resample the record")
     measured = {c: np.asarray(columns[c], dtype=float) for c in OUTPUT_CHANNELS
-                if c in columns}
-    if "drive_force_N" not in measured and "friction_force_N" not in measured:
-        raise InputError(f"{where}: the record measures no force (drive_force_N or "
-                         "friction_force_N); nothing to fit the friction to")
+                if c in columns and c not in scene.inputs}
+    if not measured:
+        raise InputError(f"{where}: the record has no output of the model {scene.name} to "
+                         f"fit ({', '.join(c for c in OUTPUT_CHANNELS if c not in scene.inputs)}"
+                         "); every column it has drives the model")
     from .replay import substeps_of_record
     substeps, from_record = substeps_of_record(dataset, sample_dt, substeps)
     substeps = int(substeps or 1)
@@ -310,4 +438,4 @@ def prepare_machine_replay(dataset: Dataset, *, substeps: int | None = None) -> 
         inputs=inputs, timestep_from_record=from_record)
 
 
-__all__ = ["MACHINES", "closed_loop_errors", "MachineReplay", "MachineScene", "machine", "prepare_machine_replay"]
+__all__ = ["BUNDLED", "closed_loop_errors", "MachineReplay", "MachineScene", "machine", "prepare_machine_replay"]

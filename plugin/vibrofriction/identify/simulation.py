@@ -154,8 +154,9 @@ class SimulationProblem:
         self.law = law
         self.runner = Replayer(train, threads)
         self.held_runners = [Replayer(r, threads) for r in self.validation]
-        self.primary = "friction_force_N" if "friction_force_N" in train.measured else \
-            "drive_force_N"
+        # the measured force (friction, else drive); a record driven by its force: position
+        self.primary = next((c for c in ("friction_force_N", "drive_force_N")
+                             if c in train.measured), train.channels[0])
         self.noise = dict(train.noise)  # channel -> sd the residual is divided by
         self.weights = {c: 1.0 / train.noise[c] for c in train.channels}
         self.floor = 0.0
@@ -328,7 +329,7 @@ def identify_by_simulation(train: Dataset, validation: Sequence[Dataset] = (), *
 def _model_name(replay) -> str:
     """The model a replay runs: a bundled machine's folder name, else the rig."""
     scene = getattr(replay, "scene", None)
-    return scene.path.parent.name if scene is not None else "rig"
+    return scene.name if scene is not None else "rig"
 
 
 class _Unresolved(Exception):
@@ -535,7 +536,7 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
 def _closed_loop_errors(problem: SimulationProblem, fit: SimFit) -> dict[str, dict]:
     """A machine's closed-loop errors as its benchmark defines them, on every record."""
     from .machine_replay import closed_loop_errors
-    extra = ("position_m", "velocity_m_per_s", "drive_force_N")
+    extra = ("position_m", "velocity_m_per_s")  # (and every measured channel)
     out = {"train": closed_loop_errors(problem.train, problem.runner.run(
         [problem.case(fit.model, fit.values)], extra)[0])}
     for replay, runner in zip(problem.validation, problem.held_runners):
@@ -808,6 +809,15 @@ def _effect_start(problem: SimulationProblem, current: SimFit, effect: str,
         # simulated directly on a grid, the other values as they are.
         grid = [{**now, "static_ratio": ratio, "stribeck_velocity_m_per_s": r * v_rms}
                 for ratio in _STRIBECK_RATIOS for r in _STRIBECK_SCAN]
+        # The same curves with the level lowered so that the mean friction over the record's
+        # sliding speeds stays: a peak then takes friction from fast sliding instead of only
+        # adding it (a machine whose viscous term is already fitted needs that to see it).
+        speed = np.abs(current.predicted["relative_velocity_m_per_s"])
+        for point in list(grid):
+            ratio, v_s = point["static_ratio"], point["stribeck_velocity_m_per_s"]
+            mean_shape = float(np.mean(1 + (ratio - 1) * np.exp(-(speed / v_s) ** 2)))
+            grid.append({**point, "friction_coefficient": now["friction_coefficient"] /
+                         mean_shape})
         residuals = problem.residuals(model, [model.internal(v) for v in grid])
         rss = [float(r @ r) for r in residuals]
         order = np.argsort(rss)

@@ -74,7 +74,7 @@ def report_json(result: SimIdentification) -> dict[str, Any]:
         "settings": {**result.settings, "simulations": result.simulations,
                      "seconds": round(result.seconds, 3)},
         "set": set_line(result),
-        **({"closed_loop": {"model": result.train.scene.path.parent.name,
+        **({"closed_loop": {"model": result.train.scene.name,
                             "first_sample": 50, **result.closed_loop}}
            if result.closed_loop is not None else {}),
     }
@@ -99,7 +99,7 @@ def _is_machine(result: SimIdentification) -> bool:
 def fitted_scene_xml(result: SimIdentification) -> str:
     """The machine scene with the final model's values, as MJCF."""
     rig, friction = _case(result, result.final)
-    return result.train.spec(rig, friction).to_xml()
+    return result.train.spec(rig, friction, probes=False).to_xml()
 
 
 def set_line(result: SimIdentification) -> str:
@@ -130,7 +130,7 @@ def report_markdown(result: SimIdentification) -> str:
              f"- law: **{r.law}**" + (f" + declared {', '.join(r.declared)}" if r.declared
                                       else ""),
              ("- method: output error, in closed loop. The machine scene "
-              f"(mjcf_models/{replay.scene.path.parent.name}: {replay.scene.description}) "
+              f"({replay.scene.path.name}: {replay.scene.description}) "
               "runs in MuJoCo with the friction plugin and the machine's own controller, "
               "driven by the record's reference; its sensors predict what the record "
               "measured." if _is_machine(r) else
@@ -215,7 +215,7 @@ def report_markdown(result: SimIdentification) -> str:
 
 def _closed_loop_section(r: SimIdentification) -> list[str]:
     """The closed-loop errors as the machine's benchmark defines them, beside its own."""
-    name = r.train.scene.path.parent.name
+    name = r.train.scene.name
     keys = ("force_relerr_pct", "position_relerr_pct", "velocity_relerr_pct")
     lines = ["## Closed-loop simulation errors (the benchmark's definition)", "",
              "relerr = 100 ||y - y_sim|| / ||y|| from the 50th sample, of the total drive "
