@@ -211,17 +211,20 @@ def test_machine_record_errors_are_clear_and_write_nothing(tmp_path, capsys):
         "reference_position_m": np.zeros_like(t)})
     with pytest.raises(InputError, match="needs position_m"):
         prepare_replay(velocity_only)
-    machine = Dataset(name="m", metadata=DatasetMetadata(model="emps"),
-                      columns={**columns, "reference_position_m": np.zeros_like(t)})
+    moving = {"time_s": t, "position_m": 1e-3 * np.sin(20 * t),
+              "drive_force_N": np.sin(50 * t), "reference_position_m": 1e-3 * np.sin(20 * t)}
+    machine = Dataset(name="m", metadata=DatasetMetadata(model="emps"), columns=moving)
     with pytest.raises(InputError, match="drive_damping: not an effect of this record's model"):
         identify_by_simulation(machine, law="coulomb", declared=["drive_damping"])
-    rig_record = Dataset(name="rig", columns=columns, metadata=DatasetMetadata(
+    rig_record = Dataset(name="rig", columns={c: moving[c] for c in columns},
+                         metadata=DatasetMetadata(
         model="rig", drive_stiffness_N_per_m=1e6, drive_velocity_m_per_s=5e-4))
     assert type(prepare_replay(rig_record)).__name__ == "RigReplay"  # "rig" is the default
     with pytest.raises(InputError, match=r"must be of the training record's model \(emps\)"):
         identify_by_simulation(machine, [rig_record], law="coulomb")
     path = tmp_path / "no_reference.csv"
-    write_dataset(no_reference, path)
+    write_dataset(Dataset(name="r", metadata=DatasetMetadata(model="emps"), columns={
+        c: v for c, v in moving.items() if c != "reference_position_m"}), path)
     before = sorted(p.name for p in tmp_path.iterdir())
     code = cli.main(["identify", str(path), "--out", str(tmp_path / "out")])
     assert code == 2

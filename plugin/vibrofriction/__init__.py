@@ -5,7 +5,8 @@ Where things live:
   MuJoCo plugins ....... plugin/cpp/friction_element.cc, support_motion.cc
   the paper's rig ...... mjcf_models/rig/ and vibrofriction/rig.py
   scipy oracle ......... vibrofriction/reference.py, analytic limits in analytic.py
-  identification ....... vibrofriction/identify/
+  identification ....... vibrofriction/identify/ (machines in closed loop: machine_replay.py,
+                         mjcf_models/emps/)
 """
 from ._native import MujocoVersionMismatch, check_mujoco_version, load
 from .params import (LAWS, FrictionParameters, ParameterError, RigParameters, default_friction)

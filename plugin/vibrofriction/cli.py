@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 from typing import Any, Sequence
 
+from ._native import MujocoVersionMismatch
 from .errors import InputError
 
 # Sub-command name -> module under vibrofriction.commands.
@@ -61,10 +62,38 @@ def write_json(path: Path | None, payload: Any) -> None:
         print(text)
         return
     path = Path(path)
+    check_output_file(path, "the output")
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(text + "\n")
-    tmp.replace(path)
+    try:
+        tmp.write_text(text + "\n")
+        tmp.replace(path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def check_output_file(path: Path | None, option: str) -> None:
+    """UsageError when ``path`` cannot become a file: it is a folder, or one of its parents is a
+    file (checked before a command runs, so nothing is computed in vain or left half-done)."""
+    if path is None:
+        return
+    path = Path(path)
+    if path.is_dir():
+        raise UsageError(f"{option} {path} is a folder; name a file")
+    for parent in path.parents:
+        if parent.exists() and not parent.is_dir():
+            raise UsageError(f"{option} {path}: {parent} is a file, not a folder")
+
+
+def check_output_folder(path: Path | None, option: str) -> None:
+    """UsageError when ``path`` cannot become a folder (an existing file is in the way)."""
+    if path is None:
+        return
+    path = Path(path)
+    for candidate in (path, *path.parents):
+        if candidate.exists() and not candidate.is_dir():
+            raise UsageError(f"{option} {path}: {candidate} is a file; name a folder")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -94,8 +123,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
+        # output targets first: a failing command computes nothing and writes nothing
+        check_output_file(getattr(args, "json_path", None), "--json")
+        check_output_file(getattr(args, "csv_path", None), "--csv")
+        if getattr(args, "out", None) is not None:
+            (check_output_file if args.command == "convert" else check_output_folder)(
+                args.out, "--out")
         return int(args._run(args) or 0)
-    except (InputError, FileNotFoundError) as exc:
+    except (InputError, FileNotFoundError, MujocoVersionMismatch) as exc:
         print(f"vibrofriction {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -64,8 +64,9 @@ def convert_emps(mat_path: str | os.PathLike) -> Dataset:
     position_m = qm, reference_position_m = qg (the controller's input), drive_force_N =
     gtau * vir (the total motor force), and for the validation run feedforward_force_N, the
     pulses as a force at the drive (added to the controller's command, so already inside vir;
-    their unit, V or N, read from the data: ``_emps_pulse_force``). The sidecar names the model (``"model": "emps"``): identification
-    simulates the closed loop of ``mjcf_models/emps`` driven by the reference.
+    their unit, V or N, read from the data: ``_emps_pulse_force``). The sidecar names the
+    model (``"model": "emps"``): identification simulates the closed loop of
+    ``mjcf_models/emps`` driven by the reference.
     """
     from scipy.io import loadmat  # scipy only for this converter
 

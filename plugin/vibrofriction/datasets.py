@@ -297,7 +297,8 @@ def check_finite(columns: Mapping[str, np.ndarray], where: str, row_label: RowLa
     if first is not None:
         index, name = first
         raise DatasetError(f"{where}: {row_label(index)}, column '{name}': value is "
-                           f"{columns[name][index]!r}; every value must be a finite number")
+                           f"{float(columns[name][index])!r}; every value must be a finite "
+                           "number")
 
 
 def check_increasing(time_s: np.ndarray, where: str, row_label: RowLabel,
@@ -311,6 +312,32 @@ def check_increasing(time_s: np.ndarray, where: str, row_label: RowLabel,
                            "time must strictly increase")
 
 
+# The largest magnitude a column may hold: far beyond any friction experiment (a kilometre, a
+# kilometre a second, a meganewton), low enough that squares and sums of them stay finite.
+COLUMN_LIMITS = {
+    "time_s": 1e9,
+    "position_m": 1e3, "support_position_m": 1e3, "reference_position_m": 1e3,
+    "velocity_m_per_s": 1e3, "support_velocity_m_per_s": 1e3,
+    "acceleration_m_per_s2": 1e8,
+    "drive_force_N": 1e6, "friction_force_N": 1e6, "normal_force_N": 1e6,
+    "feedforward_force_N": 1e6, "external_force_N": 1e6,
+}
+
+
+def check_ranges(columns: Mapping[str, np.ndarray], where: str, row_label: RowLabel) -> None:
+    """Raise on the earliest value beyond its column's limit (a unit or a glitch)."""
+    for name, values in columns.items():
+        limit = COLUMN_LIMITS.get(name)
+        if limit is None:
+            continue
+        bad = np.flatnonzero(np.abs(values) > limit)
+        if bad.size:
+            index = int(bad[0])
+            raise DatasetError(f"{where}: {row_label(index)}, column '{name}': "
+                               f"{float(values[index])!r} is beyond +-{limit:g} (SI units); check "
+                               "the unit of the column or the sample")
+
+
 def validate_columns(columns: Mapping[str, np.ndarray], where: str,
                      row_label: RowLabel = data_row_label) -> None:
     """All of dataset-format.md's rules on named SI columns."""
@@ -321,6 +348,7 @@ def validate_columns(columns: Mapping[str, np.ndarray], where: str,
     if lengths["time_s"] < 2:
         raise DatasetError(f"{where}: needs at least 2 rows, got {lengths['time_s']}")
     check_finite(columns, where, row_label)
+    check_ranges(columns, where, row_label)
     check_increasing(columns["time_s"], where, row_label)
 
 

@@ -34,6 +34,45 @@ PAPER_NORMAL_FORCE_N = 0.046 * 1200.0
 PAPER_CONTACT_STIFFNESS_N_PER_M = 80.0e6
 
 
+# The largest magnitude each value may take (SI): far beyond any friction rig or machine, so no
+# real value is refused, small enough that the simulation's arithmetic stays finite (a mass of
+# 1e-300 kg is below MuJoCo's mjMINVAL, a vibration of 1e308 m/s overflows the timestep rule).
+LIMITS: dict[str, tuple[float, float]] = {  # name -> (smallest nonzero magnitude, largest)
+    "mass_kg": (1e-9, 1e9),
+    "drive_stiffness_N_per_m": (1e-9, 1e15),
+    "drive_damping_N_s_per_m": (0.0, 1e12),
+    "drive_velocity_m_per_s": (1e-12, 1e3),
+    "vibration_frequency_Hz": (0.0, 1e7),
+    "vibration_velocity_amplitude_m_per_s": (0.0, 1e3),
+    "normal_force_N": (0.0, 1e9),
+    "friction_coefficient": (0.0, 1e9),
+    "contact_stiffness_N_per_m": (0.0, 1e18),
+    "alpha": (0.0, 1e3),
+    "bristle_damping_N_s_per_m": (0.0, 1e15),
+    "viscous_N_s_per_m": (0.0, 1e15),
+    "static_ratio": (0.0, 1e3),
+    "stribeck_velocity_m_per_s": (1e-15, 1e3),
+    "position_ripple_wavelength_m": (1e-15, 1e6),
+    "position_ripple_phase_rad": (0.0, 1e6),
+    "normal_force_modulation_frequency_Hz": (0.0, 1e9),
+    "normal_force_modulation_phase_rad": (0.0, 1e6),
+    "force_offset_N": (0.0, 1e9),
+    "sensor_lag_s": (0.0, 1e3),
+}
+
+
+def _check_limits(params: Any) -> None:
+    for name, (smallest, largest) in LIMITS.items():
+        if not hasattr(params, name):
+            continue
+        value = getattr(params, name)
+        if isinstance(value, (int, float)) and math.isfinite(value) and (
+                abs(value) > largest or 0 < abs(value) < smallest):
+            rule = f"must lie within +-{largest:g}" + (
+                f" and be 0 or at least {smallest:g} in magnitude" if smallest else "")
+            raise ParameterError(f"parameter {name}={value!r} {rule} (SI units)")
+
+
 class ParameterError(InputError):
     """A parameter is unknown, not a number, or out of its range; the message says which."""
 
@@ -63,6 +102,7 @@ class RigParameters:
         return self.vibration_velocity_amplitude_m_per_s / self.drive_velocity_m_per_s
 
     def validate(self) -> "RigParameters":
+        _check_limits(self)
         _require(self.mass_kg > 0, "mass_kg", self.mass_kg, "must be > 0")
         _require(self.drive_stiffness_N_per_m > 0, "drive_stiffness_N_per_m",
                  self.drive_stiffness_N_per_m, "must be > 0")
@@ -107,6 +147,7 @@ class FrictionParameters:
         if self.law not in LAWS:
             raise ParameterError(
                 f"unknown friction law {self.law!r}; use one of: {', '.join(LAWS)}")
+        _check_limits(self)
         _require(self.friction_coefficient >= 0, "friction_coefficient",
                  self.friction_coefficient, "must be >= 0")
         if self.law != "coulomb":

@@ -97,8 +97,6 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--substeps {args.substeps} must lie in 1..64")
     if not (math.isfinite(args.timestep) and args.timestep > 0):
         raise UsageError(f"--timestep {args.timestep} must be a positive number of seconds")
-    if args.json_path is not None:
-        _check_json_target(args.json_path)
     overrides: dict = _metadata_overrides(args.overrides)
     if args.model is not None:
         # a file named on the command line is relative to the current folder
@@ -174,11 +172,6 @@ def _run_simulation(args, train, held, out, declared, reason, progress) -> int:
           f"baseline {b.relerr_pct:.3g} % -> final {f.relerr_pct:.3g} % (selected: "
           f"{', '.join(result.selected) or 'nothing'}); report in {out}")
     return 0
-
-
-def _check_json_target(path: Path) -> None:
-    if path.is_dir():
-        raise UsageError(f"--json {path} is a folder; name a file")
 
 
 def _metadata_overrides(pairs) -> dict[str, float]:

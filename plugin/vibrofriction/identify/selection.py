@@ -90,6 +90,8 @@ def identify(train: Dataset, validation: Sequence[Dataset] = (), *, law: str = "
     """Fit ``law`` (+ declared effects) to ``train``, then trace and select effects."""
     say = progress or (lambda message: None)
     check_law_and_effects(law, declared)
+    for record in (train, *validation):
+        check_identifiable(record)
     state_law = law != "coulomb"
     record = prepare(train, substeps=substeps, lowpass_Hz=lowpass_Hz, state_law=state_law)
     held = [prepare(d, substeps=substeps, lowpass_Hz=lowpass_Hz, state_law=state_law)
@@ -186,6 +188,29 @@ def check_law_and_effects(law: str, declared: Sequence[str]) -> None:
     if unknown:
         raise InputError(f"unknown effect(s) {', '.join(unknown)}; the vocabulary is "
                          f"{', '.join(EFFECTS)}")
+
+
+MIN_SAMPLES = 16
+
+
+def check_identifiable(dataset) -> None:
+    """InputError when a record cannot be identified at all (both paths): too short, a
+    force that never changes, a body that never moves."""
+    where = str(dataset.source_path or dataset.name)
+    columns = dataset.columns
+    if dataset.n_rows < MIN_SAMPLES:
+        raise InputError(f"{where}: {dataset.n_rows} samples; identification needs at least "
+                         f"{MIN_SAMPLES}")
+    forces = [c for c in ("friction_force_N", "drive_force_N") if c in columns]
+    if forces and all(np.ptp(columns[c]) == 0 for c in forces):
+        raise InputError(f"{where}: {' and '.join(forces)} never change"
+                         f"{'s' if len(forces) == 1 else ''} (all {columns[forces[0]][0]:g}); "
+                         "there is no friction to fit")
+    motion = [c for c in ("position_m", "velocity_m_per_s") if c in columns]
+    if motion and all(np.ptp(columns[c]) == 0 for c in motion):
+        raise InputError(f"{where}: {' and '.join(motion)} never change"
+                         f"{'s' if len(motion) == 1 else ''}: the body does not move, so no "
+                         "friction law can be told from another")
 
 
 def _check_compatible(train: Record, held: Sequence[Record]) -> None:

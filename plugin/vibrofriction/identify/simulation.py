@@ -56,7 +56,8 @@ from .analysis import effective_samples, spectral_peaks
 from .fit import Metrics, _metrics
 from .model import EFFECT_INTERNALS, EFFECTS, Model, Scales
 from .replay import MAX_SUBSTEPS, Replayer, RigReplay, prepare_replay
-from .selection import BIC_THRESHOLD, MIN_IMPROVEMENT, check_law_and_effects
+from .selection import (BIC_THRESHOLD, MIN_IMPROVEMENT, check_identifiable,
+                        check_law_and_effects)
 
 ProgressFn = Callable[[str], None]
 _TOL = 1e-8
@@ -276,6 +277,8 @@ def identify_by_simulation(train: Dataset, validation: Sequence[Dataset] = (), *
     started = time.monotonic()
     say = progress or (lambda message: None)
     check_law_and_effects(law, declared)
+    for record in (train, *validation):
+        check_identifiable(record)
     replay = prepare_replay(train, substeps=substeps)
     held = [prepare_replay(d, substeps=replay.substeps) for d in validation]
     for h in held:
