@@ -73,6 +73,10 @@ FRICTION_CASES = [
     ({"modulation_phase": "1e400"}, "modulation_phase", "finite number"),
     ({"force_offset": "0.1 N"}, "force_offset", "plain number"),
     ({"sensor_lag": "-1e-3"}, "sensor_lag", ">= 0"),
+    ({"alpha": "0x10"}, "alpha", "decimal notation"),  # strtod would read 16
+    ({"sigma1": "1e-400"}, "sigma1", "too small to represent"),  # would read 0
+    ({"viscous": "1e300"}, "viscous", "past any physical value"),
+    ({"mu": "-1e300"}, "mu", "past any physical value"),
     ({"normal_sensor": "no_such_sensor"}, "normal_sensor", "names no sensor"),
     ({"normal_sensor": "drive_force", "normal_component": "1"}, "normal_component",
      "dimension"),
@@ -92,6 +96,58 @@ def test_invalid_friction_attribute_is_named(changes, attribute, fix):
     assert "vibrofriction.friction" in message
     assert f"'{attribute}'" in message
     assert fix in message
+
+
+STRUCTURE_CASES = [
+    # (how the friction actuator is changed, a word of the message)
+    ("ball", "is a ball or free joint"),
+    ("spatial tendon", "is not a fixed tendon"),
+    ("site", "must be a slide or hinge joint or a fixed tendon"),
+    ("actdim 2", 'actdim="2"'),
+    ("gear 0", "gear is 0"),
+    ("motion after friction", "declared after this friction element"),
+]
+
+
+def _structural_misuse(case: str) -> mujoco.MjSpec:
+    """A tiny scene with the element misused as ``case`` says."""
+    joint = "ball" if case == "ball" else "slide"
+    transmission = {"spatial tendon": 'tendon="spatial"', "site": 'site="s"'}.get(
+        case, 'joint="j"')
+    actdim = 2 if case == "actdim 2" else 1
+    gear = "0" if case == "gear 0" else "1"
+    motion = ('<plugin plugin="vibrofriction.motion"><instance name="shake"/></plugin>',
+              '<plugin name="shake" joint="j2" instance="shake"/>')
+    first, second = ("", motion[0]) if case == "motion after friction" else (motion[0], "")
+    return mujoco.MjSpec.from_string(f"""
+<mujoco>
+  <extension>
+    {first}
+    <plugin plugin="vibrofriction.friction"><instance name="f">
+      <config key="law" value="dahl"/><config key="mu" value="0.2"/>
+      <config key="normal" value="10"/><config key="stiffness" value="1e6"/>
+    </instance></plugin>
+    {second}
+  </extension>
+  <worldbody>
+    <body name="b"><joint name="j" type="{joint}"{' axis="1 0 0"' * (joint != "ball")}/>
+      <geom size="0.1" mass="1"/>
+      <site name="s"/><site name="s2" pos="0.1 0 0"/>
+      <body name="c" pos="0.3 0 0"><joint name="j2" type="slide" axis="1 0 0"/>
+        <geom size="0.1" mass="1"/></body></body>
+  </worldbody>
+  <tendon><spatial name="spatial"><site site="s"/><site site="s2"/></spatial></tendon>
+  <actuator>
+    {motion[1]}
+    <plugin name="friction" {transmission} instance="f" actdim="{actdim}" gear="{gear}"/>
+  </actuator>
+</mujoco>""")
+
+
+@pytest.mark.parametrize("case, words", STRUCTURE_CASES, ids=[c[0] for c in STRUCTURE_CASES])
+def test_structural_misuse_is_refused_naming_the_fix(case, words):
+    message = _compile_error(_structural_misuse(case))
+    assert "vibrofriction.friction" in message and words in message
 
 
 def test_unknown_friction_attribute_is_rejected_by_mujoco():

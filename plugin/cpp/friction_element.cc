@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <utility>
 
 #include "element_config.h"
@@ -29,6 +30,45 @@ const char* const kAttributes[] = {
 constexpr char kPlugin[] = "vibrofriction.friction";
 
 }  // namespace
+
+// The element acts along one coordinate: a slide joint (N, m), a hinge (N m, rad: joint
+// friction of an arm), or a fixed tendon of such joints, with a non-zero gear. A ball or free
+// joint, a spatial tendon or a site is refused naming the fix.
+static bool CheckTransmission(const mjModel* m, int actuator) {
+  const int id = m->actuator_trnid[2 * actuator];
+  switch (m->actuator_trntype[actuator]) {
+    case mjTRN_JOINT:
+      if (m->jnt_type[id] != mjJNT_SLIDE && m->jnt_type[id] != mjJNT_HINGE) {
+        mju_warning("%s: the actuator's joint '%s' is a ball or free joint; the element acts "
+                    "along one coordinate: put it on a slide or hinge joint (or a fixed tendon), "
+                    "and use vibrofriction.planar for a body sliding in a plane", kPlugin,
+                    mj_id2name(m, mjOBJ_JOINT, id) ? mj_id2name(m, mjOBJ_JOINT, id) : "");
+        return false;
+      }
+      break;
+    case mjTRN_TENDON:
+      for (int w = m->tendon_adr[id]; w < m->tendon_adr[id] + m->tendon_num[id]; ++w) {
+        if (m->wrap_type[w] != mjWRAP_JOINT) {
+          mju_warning("%s: the actuator's tendon '%s' is not a fixed tendon; write the relative "
+                      "motion as <fixed> over slide (or hinge) joints",
+                      kPlugin, mj_id2name(m, mjOBJ_TENDON, id) ? mj_id2name(m, mjOBJ_TENDON, id)
+                                                              : "");
+          return false;
+        }
+      }
+      break;
+    default:
+      mju_warning("%s: the actuator's transmission must be a slide or hinge joint or a fixed "
+                  "tendon (joint=\"...\" or tendon=\"...\"), not a site, body or crank", kPlugin);
+      return false;
+  }
+  if (m->actuator_gear[6 * actuator] == 0) {
+    mju_warning("%s: the actuator's gear is 0, so the element sees no motion and applies no "
+                "force; leave gear at 1", kPlugin);
+    return false;
+  }
+  return true;
+}
 
 bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* config) {
   FrictionConfig c;
@@ -75,6 +115,24 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
     mju_warning("%s: the actuator has no state for the deflection z; add actdim=\"1\" to the "
                 "actuator plugin element", kPlugin);
     return false;
+  }
+  if (m->actuator_actnum[c.actuator] != 1) {
+    mju_warning("%s: actdim=\"%d\"; the element keeps one deflection z: write actdim=\"1\"",
+                kPlugin, m->actuator_actnum[c.actuator]);
+    return false;
+  }
+  if (!CheckTransmission(m, c.actuator)) return false;
+  // Forces computed after the element are not known to its stick solve: a prescribed motion
+  // (vibrofriction.motion) declared after it would be a disturbance the element ignores.
+  for (int j = instance + 1; j < m->nplugin; ++j) {
+    const mjpPlugin* other = mjp_getPluginAtSlot(m->plugin[j]);
+    if (other && other->name && std::strcmp(other->name, "vibrofriction.motion") == 0) {
+      mju_warning("%s: the vibrofriction.motion instance '%s' is declared after this friction "
+                  "element; declare the motion plugin before the friction plugin in "
+                  "<extension> (its force must be known to the element's stick solve)",
+                  kPlugin, mj_id2name(m, mjOBJ_PLUGIN, j) ? mj_id2name(m, mjOBJ_PLUGIN, j) : "");
+      return false;
+    }
   }
   c.output = m->actuator_outadr[c.actuator];
   c.act_address = m->actuator_actadr[c.actuator];

@@ -20,9 +20,22 @@ bool ReadNumber(const mjModel* m, int instance, const char* plugin, const char* 
   errno = 0;
   const double value = std::strtod(text, &end);
   while (end && (*end == ' ' || *end == '\t')) ++end;
-  if (end == text || (end && *end != '\0') || errno == ERANGE || !std::isfinite(value)) {
-    mju_warning("%s: attribute '%s'=\"%s\" is not a finite number; write a plain number, "
-                "e.g. %s=\"%g\"", plugin, attr, text, attr, default_value);
+  // strtod also reads hexadecimal ("0x10") and "inf"/"nan": only plain decimal numbers pass
+  const bool hexadecimal = std::strpbrk(text, "xXpP") != nullptr;
+  if (end == text || (end && *end != '\0') || hexadecimal ||
+      (errno == ERANGE && std::fabs(value) > 1) || !std::isfinite(value)) {
+    mju_warning("%s: attribute '%s'=\"%s\" is not a finite number in decimal notation; write "
+                "a plain number, e.g. %s=\"%g\"", plugin, attr, text, attr, default_value);
+    return false;
+  }
+  if (errno == ERANGE) {  // underflow: the text is not zero but reads as 0 or a denormal
+    mju_warning("%s: attribute '%s'=\"%s\" is too small to represent (below 1e-300); write 0 "
+                "or a number of normal size", plugin, attr, text);
+    return false;
+  }
+  if (std::fabs(value) > kLargestAttribute) {
+    mju_warning("%s: attribute '%s'=\"%s\" is beyond +-%g, past any physical value (SI units); "
+                "check the unit", plugin, attr, text, kLargestAttribute);
     return false;
   }
   *out = value;

@@ -17,8 +17,14 @@
 
 namespace vibrofriction {
 
-// Reads a numeric attribute; the whole string must be a finite number. Returns false and
-// warns (naming plugin, attribute, value and the fix) when it is not. Missing -> default.
+// The largest magnitude a numeric attribute may have (SI units): far past any physical value,
+// small enough that a step's arithmetic stays finite. Narrower ranges are checked per attribute.
+inline constexpr double kLargestAttribute = 1e18;
+
+// Reads a numeric attribute; the whole string must be a finite decimal number (no hexadecimal,
+// no underflow to 0, at most kLargestAttribute in magnitude). Returns false and warns (naming
+// plugin, attribute, value and the fix) when it is not. Missing (or empty: MuJoCo stores an
+// empty value as no value) -> default.
 bool ReadNumber(const mjModel* m, int instance, const char* plugin, const char* attr,
                 double default_value, double* out);
 
@@ -30,29 +36,22 @@ bool ReadBool(const mjModel* m, int instance, const char* plugin, const char* at
 // step one mjData with several models, so plugins compare this each step, not a model pointer.
 std::string ConfigFingerprint(const mjModel* m, int instance);
 
-// True when the instance's config bytes equal `fingerprint`; allocates nothing. With
-// `edge_bytes`, a config longer than twice that is compared on its size and its first and last
-// edge_bytes only (the averaged element's table makes its config kilobytes long). Inline: the
-// plugins call it every step.
-inline bool ConfigUnchanged(const mjModel* m, int instance, const std::string& fingerprint,
-                            std::size_t edge_bytes = static_cast<std::size_t>(-1) / 2) {
+// True when the instance's config bytes equal `fingerprint`, compared in full; allocates
+// nothing. Inline: the plugins call it every step.
+inline bool ConfigUnchanged(const mjModel* m, int instance, const std::string& fingerprint) {
   const int begin = m->plugin_attradr[instance];
   const int end = instance + 1 < m->nplugin ? m->plugin_attradr[instance + 1] : m->npluginattr;
   const std::size_t size = static_cast<std::size_t>(end - begin);
-  if (size != fingerprint.size()) return false;
-  const char* attr = m->plugin_attr + begin;
-  if (size <= 2 * edge_bytes) return std::memcmp(attr, fingerprint.data(), size) == 0;
-  return std::memcmp(attr, fingerprint.data(), edge_bytes) == 0 &&
-         std::memcmp(attr + size - edge_bytes, fingerprint.data() + size - edge_bytes,
-                     edge_bytes) == 0;
+  return size == fingerprint.size() &&
+         std::memcmp(m->plugin_attr + begin, fingerprint.data(), size) == 0;
 }
 
 // The parsed config of one plugin instance, re-read when stepped with a model whose config
 // bytes differ (rollout and batch can step one mjData with several models; a cached config
-// would silently keep the first model's values). The bytes are compared in the first callback
-// of a step: in full for a model other than last step's, for the same model on their size and
-// their first and last 256 bytes (models are switched between steps, not edited in place).
-// Later callbacks of the same step (later_in_step) only check the model pointer.
+// would silently keep the first model's values). The bytes are compared in full in the first
+// callback of every step (a pointer alone can be reused by a model compiled after another was
+// freed; a spot check of the edges let such a model run the other's table). Later callbacks of
+// the same step (later_in_step) only check the model pointer.
 template <class Config>
 class CachedConfig {
  public:
@@ -67,8 +66,8 @@ class CachedConfig {
 
   // False when the config of `m` is invalid (the reader has warned, naming the attribute).
   bool Refresh(const mjModel* m, int instance, bool later_in_step = false) {
-    if (m == model_ &&
-        (later_in_step || ConfigUnchanged(m, instance, fingerprint_, kSpotCheckBytes))) {
+    // exact: a model freed and another compiled at its address must not pass for it
+    if (m == model_ && (later_in_step || ConfigUnchanged(m, instance, fingerprint_))) {
       return valid_;
     }
     return Reload(m, instance);
@@ -77,7 +76,6 @@ class CachedConfig {
   const Config* operator->() const { return &config_; }
 
  private:
-  static constexpr std::size_t kSpotCheckBytes = 256;
   CachedConfig(Reader read, Config config, std::string fingerprint)
       : read_(read), config_(std::move(config)), fingerprint_(std::move(fingerprint)) {}
   // Another model (or the same one whose spot check failed): compare in full, re-read if needed.
