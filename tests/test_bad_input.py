@@ -75,3 +75,12 @@ def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, monkeypatch, 
     after = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
     assert after == before  # nothing written, nothing existing changed
     assert sorted(p.name for p in tmp_path.iterdir() if p.is_dir()) == ["a_folder"]
+
+
+def test_a_held_body_on_a_moving_support_and_an_absolute_clock_are_accepted():
+    from vibrofriction.identify.selection import check_identifiable
+    t = 1.7e9 + np.arange(200) * 1e-3  # Unix time
+    held = Dataset(name="held", metadata=DatasetMetadata(), columns={
+        "time_s": t, "position_m": np.zeros_like(t), "friction_force_N": np.sin(50 * t),
+        "support_velocity_m_per_s": np.cos(30 * t)})
+    check_identifiable(held)  # the counterface moves under a body held on a load cell

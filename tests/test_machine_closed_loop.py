@@ -352,3 +352,37 @@ def test_a_users_scene_without_its_mapping_is_a_clear_error(tmp_path):
         "reference_position_m": np.zeros_like(t)})
     with pytest.raises(InputError, match="has reference_position_m, which the model"):
         prepare_replay(record)
+
+
+def test_a_scene_keeps_its_own_normal_load_and_needs_named_plugins(tmp_path):
+    from vibrofriction.identify.machine_replay import machine
+    scene = tmp_path / "loaded.xml"
+    scene.write_text(USER_SCENE.replace('<config key="normal" value="1"/>',
+                                        '<config key="normal" value="40"/>'))
+    t = np.arange(100) * 1e-3
+    record = Dataset(name="r", metadata=DatasetMetadata(model="loaded.xml"), columns={
+        "time_s": t, "position_m": 1e-3 * np.sin(20 * t), "drive_force_N": np.sin(50 * t)})
+    path = tmp_path / "r.csv"
+    write_dataset(record, path)
+    from vibrofriction.datasets import read_dataset
+    replay = prepare_replay(read_dataset(path))  # the sidecar's path is the record's folder's
+    assert replay.scene.path == scene.resolve() and replay.rig.normal_force_N == 40.0
+    spec = replay.spec(replace(replay.rig, mass_kg=1.0),
+                       FrictionParameters(law="coulomb", friction_coefficient=0.1),
+                       probes=False)
+    config = dict(next(p for p in spec.plugins if p.name == "guide_friction").config)
+    assert float(config["normal"]) == 40.0 and float(config["mu"]) == 0.1
+    inline = tmp_path / "inline.xml"
+    bare = USER_SCENE[:USER_SCENE.index("  <extension>")] + \
+        '  <extension><plugin plugin="vibrofriction.friction"/></extension>\n' + \
+        USER_SCENE[USER_SCENE.index("  <custom>"):]
+    inline.write_text(bare.replace(
+        '<plugin name="friction" joint="slide" instance="guide_friction" actdim="1"/>',
+        '<plugin name="friction" joint="slide" plugin="vibrofriction.friction" actdim="1">'
+        '<config key="law" value="coulomb"/><config key="mu" value="1"/></plugin>'))
+    with pytest.raises(InputError, match="has no instance name"):
+        machine(str(inline))
+    typo = tmp_path / "typo.xml"
+    typo.write_text(USER_SCENE.replace("vibrofriction:body", "vibrofriction:bdy"))
+    with pytest.raises(InputError, match="vibrofriction:bdy is not a key"):
+        machine(str(typo))

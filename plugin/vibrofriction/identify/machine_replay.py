@@ -25,7 +25,7 @@ that ``friction_coefficient`` is the friction level in N.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Sequence
 
@@ -70,11 +70,14 @@ class MachineScene:
     body: str  # the moving body whose mass is fitted
     joint: str
     controller: str | None  # its vibrofriction.sampled_pd instance, if it has one
+    controller_actuator: str | None
     controller_input: str | None  # the column the controller's actuator takes as ctrl
     inputs: dict[str, str]  # record column -> actuator whose ctrl it is
     outputs: dict[str, tuple[str, ...]]  # record column -> sensors whose sum predicts it
     friction_instance: str
+    friction_config: dict[str, str]  # the scene's own config of the friction element
     description: str
+    bundled: bool = False  # one of BUNDLED (its benchmark's published figures apply)
 
     @classmethod
     def from_file(cls, path: Path, name: str | None = None) -> "MachineScene":
@@ -98,6 +101,11 @@ class MachineScene:
                                  f"is no {obj.name[6:].lower()} of the model")
             return value
 
+        for key in texts:
+            if key not in ("joint", "body", "description") and \
+                    key.partition(":")[0] not in ("input", "output"):
+                raise InputError(f"model {where}: {TEXT_PREFIX}{key} is not a key of the mapping "
+                                 "(joint, body, description, input:COLUMN, output:COLUMN)")
         for key in ("joint", "body"):
             if key not in texts:
                 raise InputError(
@@ -125,32 +133,47 @@ class MachineScene:
             raise InputError(f"model {where}: no actuator named {FRICTION_ACTUATOR!r} backed by a "
                              "vibrofriction.friction instance; the friction to identify is that "
                              "element")
-        controller = controller_input = None
+        controller = controller_actuator = controller_input = None
         for i in range(model.nu):
             p = int(model.actuator_plugin[i])
-            if p >= 0 and _plugin_kind(spec, model, p) == "vibrofriction.sampled_pd":
-                controller = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_PLUGIN, p)
-                actuator = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, i)
+            if p < 0:
+                continue
+            actuator = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, i)
+            instance = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_PLUGIN, p)
+            declared = next((q for q in spec.plugins if instance and q.name == instance), None)
+            kind = declared.plugin_name if declared is not None else \
+                (spec.actuator(actuator).plugin.plugin_name if actuator else "")
+            if kind not in ("vibrofriction.sampled_pd", "vibrofriction.friction"):
+                continue
+            if not instance:  # configured inline: identification sets it by instance name
+                raise InputError(f"model {where}: the {kind} plugin of actuator "
+                                 f"{actuator or i!r} has no instance name; declare it in "
+                                 "<extension><plugin><instance name=\"...\"> and reference it "
+                                 "with instance=\"...\"")
+            if kind == "vibrofriction.sampled_pd":
+                controller, controller_actuator = instance, actuator
                 controller_input = next((c for c, a in inputs.items() if a == actuator), None)
-        return cls(path=Path(path), name=name or Path(path).stem, body=body, joint=joint,
-                   controller=controller, controller_input=controller_input, inputs=inputs,
-                   outputs=outputs,
-                   friction_instance=mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_PLUGIN, plugin),
-                   description=texts.get("description", spec.modelname or Path(path).stem))
+        instance = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_PLUGIN, plugin)
+        config = dict(next(p for p in spec.plugins if p.name == instance).config)
+        return cls(path=Path(path).resolve(), name=name or Path(path).stem, body=body,
+                   joint=joint, controller=controller, controller_actuator=controller_actuator,
+                   controller_input=controller_input, inputs=inputs, outputs=outputs,
+                   friction_instance=instance, friction_config=config,
+                   description=texts.get("description", spec.modelname or Path(path).stem),
+                   bundled=name in BUNDLED)
+
+    @property
+    def normal_load_given(self) -> bool:
+        """Whether the scene sets the friction element's normal load (a constant, a sensor or
+        contacts); else identification uses 1 N, so the fitted mu is the level in N."""
+        return any(self.friction_config.get(k, "").strip()
+                   for k in ("normal", "normal_sensor", "contact_geom1"))
 
     @property
     def required_inputs(self) -> tuple[str, ...]:
         """The controller's reference and the position the state starts from; force inputs
         left out are zero."""
         return tuple(c for c in (self.controller_input,) if c) + ("position_m",)
-
-
-def _plugin_kind(spec: mujoco.MjSpec, model: mujoco.MjModel, plugin_id: int) -> str:
-    name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_PLUGIN, plugin_id)
-    for p in spec.plugins:
-        if p.name == name:
-            return p.plugin_name
-    return ""
 
 
 BUNDLED = {"emps": rig_module.MJCF_DIR / "emps" / "emps.xml"}
@@ -170,8 +193,8 @@ def machine(model: str, where: str = "", base: Path | None = None) -> MachineSce
         return MachineScene.from_file(BUNDLED[model], model)
     if model.endswith(".xml"):
         path = Path(model)
-        if not path.is_absolute() and base is not None and not path.is_file():
-            path = base / path
+        if not path.is_absolute() and base is not None:
+            path = base / path  # a sidecar's path is relative to its record
         return MachineScene.from_file(path)
     raise InputError(f"{where + ': ' if where else ''}model {model!r} names no bundled model "
                      f"and no .xml file; use one of: {', '.join(sorted(BUNDLED))}, an MJCF "
@@ -235,10 +258,16 @@ class MachineReplay:
         spec = mujoco.MjSpec.from_file(str(scene.path))
         spec.option.timestep = self.timestep_s
         spec.body(scene.body).mass = rig.mass_kg
-        config = {**next(p for p in spec.plugins if p.name == scene.friction_instance).config,
-                  **rig_module.friction_config(rig, friction)}
+        config = {**scene.friction_config, **rig_module.friction_config(rig, friction)}
         config["modulation_frequency"] = repr(float(
             friction.normal_force_modulation_frequency_Hz))
+        if scene.normal_load_given:  # the scene's normal load, as the scene sets it
+            for key in ("normal", "normal_sensor", "normal_gain", "normal_component",
+                        "contact_geom1", "contact_geom2"):
+                if key in scene.friction_config:
+                    config[key] = scene.friction_config[key]
+                else:
+                    config.pop(key, None)
         rig_module.set_plugin_config(spec, scene.friction_instance, config)
         if scene.controller is not None:
             # The controller samples every `substeps` steps exactly: its period is the record's
@@ -269,8 +298,12 @@ class MachineReplay:
         controller = -1 if self.scene.controller is None else \
             mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_PLUGIN, self.scene.controller)
         if controller >= 0:
-            T, q0, v0 = self.sample_interval_s, self.initial_position_m, \
-                self.initial_velocity_m_per_s
+            # what the controller samples: its actuator's length (gear, another joint)
+            mujoco.mj_fwdPosition(model, data)
+            mujoco.mj_fwdVelocity(model, data)
+            a = model.actuator(self.scene.controller_actuator).id
+            T = self.sample_interval_s
+            q0, v0 = float(data.actuator_length[a]), float(data.actuator_velocity[a])
             adr = model.plugin_stateadr[controller]
             # held, pending, last position, last filtered position, next sample time, started
             data.plugin_state[adr:adr + 6] = [0.0, 0.0, q0 - v0 * T, q0 - 1.5 * v0 * T,
@@ -307,7 +340,6 @@ class MachineReplay:
 
     def at_substeps(self, substeps: int) -> "MachineReplay":
         """The same record replayed with ``substeps`` MuJoCo steps a sample."""
-        from dataclasses import replace
         return replace(self, substeps=substeps, timestep_s=self.sample_interval_s / substeps,
                        control=_control(self.scene, self.inputs, len(self.time_s), substeps))
 
@@ -424,7 +456,13 @@ def prepare_machine_replay(dataset: Dataset, *, substeps: int | None = None) -> 
     coef, *_ = np.linalg.lstsq(a, force[moving], rcond=None)
     mass_start = dataset.metadata.mass_kg or (float(coef[0]) if coef[0] > 0 else 1.0)
     level = abs(float(coef[1])) or float(np.mean(np.abs(force)))
-    rig = RigParameters(mass_kg=mass_start, normal_force_N=1.0, drive_velocity_m_per_s=1.0)
+    normal = 1.0
+    if scene.normal_load_given:
+        try:
+            normal = float(scene.friction_config.get("normal", "") or 1.0) or 1.0
+        except ValueError:
+            normal = 1.0
+    rig = RigParameters(mass_kg=mass_start, normal_force_N=normal, drive_velocity_m_per_s=1.0)
     v_scale = math.sqrt(float(np.mean(velocity ** 2))) or 1e-3
     from .replay import noise_sd
     return MachineReplay(
@@ -435,7 +473,8 @@ def prepare_machine_replay(dataset: Dataset, *, substeps: int | None = None) -> 
         initial_position_m=float(position[0]),
         initial_velocity_m_per_s=float(smoothed_derivative(position[:32], t[:32])[0]),
         initial_friction_N=float(force[0]), level_N=level, velocity_scale_m_per_s=v_scale,
-        inputs=inputs, timestep_from_record=from_record)
+        inputs=inputs, timestep_from_record=from_record,
+        normal_force_known=scene.normal_load_given)
 
 
 __all__ = ["BUNDLED", "closed_loop_errors", "MachineReplay", "MachineScene", "machine", "prepare_machine_replay"]

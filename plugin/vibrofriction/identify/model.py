@@ -23,7 +23,7 @@ import numpy as np
 from scipy.signal import lfilter
 
 from ..laws import run_law
-from ..params import FrictionParameters
+from ..params import LIMITS, FrictionParameters
 from .record import Record
 
 # The identification vocabulary (interfaces.md), in the order candidates are listed.
@@ -118,6 +118,15 @@ def parameter_table(law: str, effects: Sequence[str], fit_mass: bool,
         "force_offset_N": Param("force_offset_N", -1e3 * f, 1e3 * f, 0.1 * f),
         "mass_kg": Param("mass_kg", 1e-9, 1e9, 1.0),
     }
+    # Within the vocabulary's limits (params.LIMITS): a fit never proposes a value the
+    # plugin or the parameter check would refuse.
+    for name, param in list(table.items()):
+        if name in LIMITS:
+            smallest, largest = LIMITS[name]
+            lower = param.lower if param.lower == 0 or param.lower >= smallest or \
+                param.lower < 0 else smallest
+            lower = max(lower, -largest)
+            table[name] = replace(param, lower=lower, upper=min(param.upper, largest))
     names = list(LAW_PARAMETERS[law])
     for effect in effects:
         names.extend(EFFECT_INTERNALS[effect])

@@ -282,7 +282,7 @@ def identify_by_simulation(train: Dataset, validation: Sequence[Dataset] = (), *
     replay = prepare_replay(train, substeps=substeps)
     held = [prepare_replay(d, substeps=replay.substeps) for d in validation]
     for h in held:
-        if _model_name(h) != _model_name(replay):
+        if _model_identity(h) != _model_identity(replay):
             raise InputError(f"{h.name}: a held-out record must be of the training record's "
                              f"model ({_model_name(replay)}), not of {_model_name(h)}; check "
                              "the sidecars' 'model'")
@@ -327,6 +327,12 @@ def identify_by_simulation(train: Dataset, validation: Sequence[Dataset] = (), *
     finally:
         for made in problems:
             made.close()
+
+
+def _model_identity(replay) -> str:
+    """What a replay runs, exactly: a scene's resolved file, else the rig."""
+    scene = getattr(replay, "scene", None)
+    return str(scene.path) if scene is not None else "rig"
 
 
 def _model_name(replay) -> str:

@@ -129,11 +129,12 @@ def report_markdown(result: SimIdentification) -> str:
     lines = [f"# Identification by simulation: {replay.name}", "",
              f"- law: **{r.law}**" + (f" + declared {', '.join(r.declared)}" if r.declared
                                       else ""),
-             ("- method: output error, in closed loop. The machine scene "
-              f"({replay.scene.path.name}: {replay.scene.description}) "
-              "runs in MuJoCo with the friction plugin and the machine's own controller, "
-              "driven by the record's reference; its sensors predict what the record "
-              "measured." if _is_machine(r) else
+             (f"- method: output error{', in closed loop' if replay.scene.controller else ''}. "
+              f"The scene ({replay.scene.path.name}: {replay.scene.description}) runs in "
+              "MuJoCo with the friction plugin" + (
+                  " and the machine's own controller, driven by the record's reference"
+                  if replay.scene.controller else ", driven by the record's inputs") +
+              "; its sensors predict what the record measured." if _is_machine(r) else
               "- method: output error. The rig scene (mjcf_models/rig) runs in MuJoCo with the "
               "friction plugin, driven by the record's support motion and the drive end's "
               "motion; its sensors predict what the record measured.") +
@@ -226,7 +227,8 @@ def _closed_loop_section(r: SimIdentification) -> list[str]:
         for record, errors in r.closed_loop[label].items():
             cells = [f"{errors[k]:.4g} %" if k in errors else "–" for k in keys]
             lines.append(f"| {label} ({r.law}) | {record} | " + " | ".join(cells) + " |")
-    for record, errors in PUBLISHED_CLOSED_LOOP.get(name, {}).items():
+    published = PUBLISHED_CLOSED_LOOP.get(name, {}) if r.train.scene.bundled else {}
+    for record, errors in published.items():
         lines.append(f"| published IDIM-LS, its own simulation | {record} | " +
                      " | ".join(f"{errors[k]:.4g} %" for k in keys) + " |")
     return lines + [""]
