@@ -821,20 +821,25 @@ def _effect_start(problem: SimulationProblem, current: SimFit, effect: str,
         # The same curves with the level lowered so that the mean friction over the record's
         # sliding speeds stays: a peak then takes friction from fast sliding instead of only
         # adding it (a machine whose viscous term is already fitted needs that to see it).
+        # Their best is one more start of its own, never the first: from it a record whose
+        # peak adds friction (the rig's breakaway) falls into another basin.
         speed = np.abs(current.predicted["relative_velocity_m_per_s"])
-        for point in list(grid):
+        compensated = []
+        for point in grid:
             ratio, v_s = point["static_ratio"], point["stribeck_velocity_m_per_s"]
             mean_shape = float(np.mean(1 + (ratio - 1) * np.exp(-(speed / v_s) ** 2)))
-            grid.append({**point, "friction_coefficient": now["friction_coefficient"] /
-                         mean_shape})
-        residuals = problem.residuals(model, [model.internal(v) for v in grid])
-        rss = [float(r @ r) for r in residuals]
+            compensated.append({**point, "friction_coefficient":
+                                now["friction_coefficient"] / mean_shape})
+        residuals = problem.residuals(model, [model.internal(v) for v in grid + compensated])
+        rss = [float(r @ r) for r in residuals[:len(grid)]]
         order = np.argsort(rss)
         i = int(order[0])
         if rss[i] < best_rss:
             best, best_rss = grid[i], rss[i]
         # stick-slip makes the cost rugged: the next best grid points start fits too
         others = [grid[int(j)] for j in order[:_STRIBECK_STARTS] if grid[int(j)] is not best]
+        others.append(compensated[int(np.argmin([float(r @ r)
+                                                 for r in residuals[len(grid):]]))])
     for n in list(best):
         p = params[n]
         if p.name in names:
