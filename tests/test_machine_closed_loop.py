@@ -386,3 +386,30 @@ def test_a_scene_keeps_its_own_normal_load_and_needs_named_plugins(tmp_path):
     typo.write_text(USER_SCENE.replace("vibrofriction:body", "vibrofriction:bdy"))
     with pytest.raises(InputError, match="vibrofriction:bdy is not a key"):
         machine(str(typo))
+
+
+def test_the_friction_actuator_must_be_a_friction_element(tmp_path):
+    from vibrofriction.identify.machine_replay import machine
+    scene = tmp_path / "wrong.xml"
+    scene.write_text(USER_SCENE.replace(
+        '<plugin plugin="vibrofriction.friction"><instance name="guide_friction">',
+        '<plugin plugin="vibrofriction.motion"><instance name="guide_friction">').replace(
+        '<config key="law" value="coulomb"/><config key="normal" value="1"/>\n'
+        '    <config key="mu" value="1"/>', '').replace(' actdim="1"', ""))
+    with pytest.raises(InputError, match="must be backed by a named vibrofriction.friction"):
+        machine(str(scene))
+
+
+def test_fitted_values_never_leave_the_vocabulary_limits():
+    from vibrofriction.identify.model import Scales, parameter_table
+    from vibrofriction.params import LIMITS
+    # a few um of travel at 10 N: the stiffness bound is the vocabulary's limit, 1e18 N/m
+    scales = Scales(force_N=10.0, velocity_m_per_s=1e-3, normal_force_N=1.0, dt_s=1e-5,
+                    travel_m=1e-6)
+    for param in parameter_table("dahl", [], True, scales):
+        lo, hi = param.internal_bounds()
+        for q in (lo, hi, hi + 1.0):
+            value = param.from_internal(q)
+            if param.name in LIMITS:
+                assert abs(value) <= LIMITS[param.name][1], param.name
+            assert param.lower <= value <= param.upper, param.name

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <cstring>
 #include <utility>
+#include <vector>
 
 #include "element_config.h"
 #include "plugin_util.h"
@@ -38,6 +39,7 @@ static bool CheckTransmission(const mjModel* m, int actuator) {
   const int id = m->actuator_trnid[2 * actuator];
   switch (m->actuator_trntype[actuator]) {
     case mjTRN_JOINT:
+    case mjTRN_JOINTINPARENT:
       if (m->jnt_type[id] != mjJNT_SLIDE && m->jnt_type[id] != mjJNT_HINGE) {
         mju_warning("%s: the actuator's joint '%s' is a ball or free joint; the element acts "
                     "along one coordinate: put it on a slide or hinge joint (or a fixed tendon), "
@@ -68,6 +70,40 @@ static bool CheckTransmission(const mjModel* m, int actuator) {
     return false;
   }
   return true;
+}
+
+// The kinematic trees (dof_treeid) an actuator's transmission moves: its joint's, or its
+// fixed tendon's joints'.
+static void TreesOf(const mjModel* m, int actuator, std::vector<int>* trees) {
+  const int id = m->actuator_trnid[2 * actuator];
+  auto add_joint = [&](int joint) {
+    if (joint >= 0) trees->push_back(m->dof_treeid[m->jnt_dofadr[joint]]);
+  };
+  switch (m->actuator_trntype[actuator]) {
+    case mjTRN_JOINT:
+    case mjTRN_JOINTINPARENT:
+      add_joint(id);
+      break;
+    case mjTRN_TENDON:
+      for (int w = m->tendon_adr[id]; w < m->tendon_adr[id] + m->tendon_num[id]; ++w) {
+        if (m->wrap_type[w] == mjWRAP_JOINT) add_joint(m->wrap_objid[w]);
+      }
+      break;
+    default:  // a site or body transmission: assume it may share (conservative)
+      trees->push_back(-1);
+  }
+}
+
+static bool SharesTree(const mjModel* m, int a, int b) {
+  std::vector<int> ta, tb;
+  TreesOf(m, a, &ta);
+  TreesOf(m, b, &tb);
+  for (int x : ta) {
+    for (int y : tb) {
+      if (x == y || x < 0 || y < 0) return true;
+    }
+  }
+  return false;
 }
 
 bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* config) {
@@ -123,14 +159,19 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
   }
   if (!CheckTransmission(m, c.actuator)) return false;
   // Forces computed after the element are not known to its stick solve: a prescribed motion
-  // (vibrofriction.motion) declared after it would be a disturbance the element ignores.
+  // (vibrofriction.motion) computed after it, on a body tree the element's transmission shares,
+  // would be a disturbance the element ignores.
   for (int j = instance + 1; j < m->nplugin; ++j) {
     const mjpPlugin* other = mjp_getPluginAtSlot(m->plugin[j]);
-    if (other && other->name && std::strcmp(other->name, "vibrofriction.motion") == 0) {
-      mju_warning("%s: the vibrofriction.motion instance '%s' is declared after this friction "
-                  "element; declare the motion plugin before the friction plugin in "
-                  "<extension> (its force must be known to the element's stick solve)",
-                  kPlugin, mj_id2name(m, mjOBJ_PLUGIN, j) ? mj_id2name(m, mjOBJ_PLUGIN, j) : "");
+    if (!other || !other->name || std::strcmp(other->name, "vibrofriction.motion") != 0) continue;
+    for (int a = 0; a < m->nu; ++a) {
+      if (m->actuator_plugin[a] != j || !SharesTree(m, a, c.actuator)) continue;
+      const char* name = mj_id2name(m, mjOBJ_PLUGIN, j);
+      mju_warning("%s: a vibrofriction.motion plugin (%s%s%s) on the same body tree is computed "
+                  "after this friction element; declare it as a named <extension> instance "
+                  "before the friction element's (its force must be known to the element's "
+                  "stick solve)", kPlugin, name ? "instance '" : "inline", name ? name : "",
+                  name ? "'" : "");
       return false;
     }
   }

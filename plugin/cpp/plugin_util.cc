@@ -29,7 +29,7 @@ bool ReadNumber(const mjModel* m, int instance, const char* plugin, const char* 
     return false;
   }
   if (errno == ERANGE) {  // underflow: the text is not zero but reads as 0 or a denormal
-    mju_warning("%s: attribute '%s'=\"%s\" is too small to represent (below 1e-300); write 0 "
+    mju_warning("%s: attribute '%s'=\"%s\" is too small to represent (below 2.2e-308); write 0 "
                 "or a number of normal size", plugin, attr, text);
     return false;
   }

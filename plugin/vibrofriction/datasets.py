@@ -313,7 +313,7 @@ def check_increasing(time_s: np.ndarray, where: str, row_label: RowLabel,
 
 
 # The largest magnitude a column may hold: far beyond any friction experiment (a kilometre, a
-# kilometre a second, a meganewton), low enough that squares and sums of them stay finite.
+# kilometre a second, a giganewton), low enough that squares and sums of them stay finite.
 # (time is not limited: absolute clocks such as Unix time are fine)
 COLUMN_LIMITS = {
     "position_m": 1e3, "support_position_m": 1e3, "reference_position_m": 1e3,

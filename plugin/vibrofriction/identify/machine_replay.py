@@ -154,7 +154,12 @@ class MachineScene:
                 controller, controller_actuator = instance, actuator
                 controller_input = next((c for c, a in inputs.items() if a == actuator), None)
         instance = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_PLUGIN, plugin)
-        config = dict(next(p for p in spec.plugins if p.name == instance).config)
+        declared = next((p for p in spec.plugins if instance and p.name == instance), None)
+        if declared is None or declared.plugin_name != "vibrofriction.friction":
+            raise InputError(f"model {where}: the actuator {FRICTION_ACTUATOR!r} must be backed by "
+                             "a named vibrofriction.friction instance (declared in <extension> "
+                             "and referenced with instance=\"...\")")
+        config = dict(declared.config)
         return cls(path=Path(path).resolve(), name=name or Path(path).stem, body=body,
                    joint=joint, controller=controller, controller_actuator=controller_actuator,
                    controller_input=controller_input, inputs=inputs, outputs=outputs,
@@ -166,8 +171,19 @@ class MachineScene:
     def normal_load_given(self) -> bool:
         """Whether the scene sets the friction element's normal load (a constant, a sensor or
         contacts); else identification uses 1 N, so the fitted mu is the level in N."""
-        return any(self.friction_config.get(k, "").strip()
-                   for k in ("normal", "normal_sensor", "contact_geom1"))
+        normal = self.friction_config.get("normal", "").strip()
+        return bool(self.friction_config.get("normal_sensor", "").strip() or
+                    self.friction_config.get("contact_geom1", "").strip() or
+                    (normal and _number(normal) != 0))
+
+    @property
+    def constant_normal_N(self) -> float | None:
+        """The scene's normal load when it is a constant > 0 (no sensor, no contacts)."""
+        if self.friction_config.get("normal_sensor", "").strip() or \
+                self.friction_config.get("contact_geom1", "").strip():
+            return None
+        value = _number(self.friction_config.get("normal", ""))
+        return value if value and value > 0 else None
 
     @property
     def required_inputs(self) -> tuple[str, ...]:
@@ -383,6 +399,13 @@ def closed_loop_errors(replay: MachineReplay, predicted: dict[str, np.ndarray]
     return out
 
 
+def _number(text: str) -> float | None:
+    try:
+        return float(text)
+    except ValueError:
+        return None
+
+
 def _sample_interval(time_s: np.ndarray) -> float:
     """The record's mean sample interval (the EMPS's timestamps are quantized to 0.999984 or
     1.000024 ms, each within 32 ns of k x 1 ms: the mean is the clock)."""
@@ -456,12 +479,9 @@ def prepare_machine_replay(dataset: Dataset, *, substeps: int | None = None) -> 
     coef, *_ = np.linalg.lstsq(a, force[moving], rcond=None)
     mass_start = dataset.metadata.mass_kg or (float(coef[0]) if coef[0] > 0 else 1.0)
     level = abs(float(coef[1])) or float(np.mean(np.abs(force)))
-    normal = 1.0
-    if scene.normal_load_given:
-        try:
-            normal = float(scene.friction_config.get("normal", "") or 1.0) or 1.0
-        except ValueError:
-            normal = 1.0
+    # The fit's scale of mu: the scene's constant load; 1 N otherwise (a load from a sensor
+    # or contacts is simulated as the scene has it, but its size is not known here)
+    normal = scene.constant_normal_N or 1.0
     rig = RigParameters(mass_kg=mass_start, normal_force_N=normal, drive_velocity_m_per_s=1.0)
     v_scale = math.sqrt(float(np.mean(velocity ** 2))) or 1e-3
     from .replay import noise_sd
@@ -474,7 +494,7 @@ def prepare_machine_replay(dataset: Dataset, *, substeps: int | None = None) -> 
         initial_velocity_m_per_s=float(smoothed_derivative(position[:32], t[:32])[0]),
         initial_friction_N=float(force[0]), level_N=level, velocity_scale_m_per_s=v_scale,
         inputs=inputs, timestep_from_record=from_record,
-        normal_force_known=scene.normal_load_given)
+        normal_force_known=scene.constant_normal_N is not None)
 
 
 __all__ = ["BUNDLED", "closed_loop_errors", "MachineReplay", "MachineScene", "machine", "prepare_machine_replay"]

@@ -56,7 +56,9 @@ class Param:
         return value / self.scale
 
     def from_internal(self, q: float) -> float:
-        return self.scale * math.exp(q) if self.log else self.scale * q
+        # (within the bounds exactly: exp and the product may land a few ulps past them)
+        value = self.scale * math.exp(q) if self.log else self.scale * q
+        return min(max(value, self.lower), self.upper)
 
     def internal_bounds(self) -> tuple[float, float]:
         if self.log:
@@ -123,10 +125,13 @@ def parameter_table(law: str, effects: Sequence[str], fit_mass: bool,
     for name, param in list(table.items()):
         if name in LIMITS:
             smallest, largest = LIMITS[name]
+            upper = min(param.upper, largest)
             lower = param.lower if param.lower == 0 or param.lower >= smallest or \
                 param.lower < 0 else smallest
             lower = max(lower, -largest)
-            table[name] = replace(param, lower=lower, upper=min(param.upper, largest))
+            if lower >= upper:  # a record of absurd scale: keep the table's own bounds
+                lower, upper = param.lower, param.upper
+            table[name] = replace(param, lower=lower, upper=upper)
     names = list(LAW_PARAMETERS[law])
     for effect in effects:
         names.extend(EFFECT_INTERNALS[effect])

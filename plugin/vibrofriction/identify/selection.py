@@ -202,16 +202,22 @@ def check_identifiable(dataset) -> None:
         raise InputError(f"{where}: {dataset.n_rows} samples; identification needs at least "
                          f"{MIN_SAMPLES}")
     # (a scene driven by its measured drive force has it as an input: a constant push is fine)
+    inputs: tuple[str, ...] = ()
     scene = dataset.metadata.model not in (None, "rig")
+    if scene:
+        from .machine_replay import machine
+        base = dataset.source_path.parent if dataset.source_path is not None else None
+        inputs = tuple(machine(str(dataset.metadata.model), where, base).inputs)
     forces = [c for c in ("friction_force_N", "drive_force_N") if c in columns and
-              not (scene and c == "drive_force_N")]
+              c not in inputs]
     if forces and all(np.ptp(columns[c]) == 0 for c in forces):
         raise InputError(f"{where}: {' and '.join(forces)} never change"
                          f"{'s' if len(forces) == 1 else ''} (all {columns[forces[0]][0]:g}); "
                          "there is no friction to fit")
     # relative motion: the body, or the support under a held body
-    motion = [c for c in ("position_m", "velocity_m_per_s", "support_position_m",
-                          "support_velocity_m_per_s") if c in columns]
+    motion = [c for c in ("position_m", "velocity_m_per_s") +
+              (() if scene else ("support_position_m", "support_velocity_m_per_s"))
+              if c in columns]
     if motion and all(np.ptp(columns[c]) == 0 for c in motion):
         raise InputError(f"{where}: {' and '.join(motion)} never change"
                          f"{'s' if len(motion) == 1 else ''}: nothing slides, so no friction "
