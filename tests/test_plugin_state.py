@@ -163,3 +163,50 @@ def test_rollout_with_several_models_uses_each_models_config():
         assert np.array_equal(together[k], alone[k]), k
     assert not np.array_equal(alone[0], alone[2])  # the configs do differ
     assert np.array_equal(alone[0], alone[4])
+
+
+def _continue(model, data, steps=300):
+    rows, state = [], np.empty(mujoco.mj_stateSize(model, FULL))
+    for _ in range(steps):
+        mujoco.mj_step(model, data)
+        mujoco.mj_getState(model, data, state, FULL)
+        rows.append(np.concatenate([state, data.actuator_force]))
+    return np.array(rows)
+
+
+@pytest.mark.parametrize("scene", ["emps", "dynamometer"])
+def test_plugin_state_round_trips_with_fullphysics_not_physics(scene):
+    """The controller's and the dynamometer's state live in plugin_state: FULLPHYSICS restores
+    a run bit-identically; PHYSICS, as the README says, does not."""
+    from vibrofriction.identify.machine_replay import BUNDLED
+    if scene == "emps":
+        model = mujoco.MjModel.from_xml_path(str(BUNDLED["emps"]))
+        drive = lambda d: d.ctrl.__setitem__(0, 0.05 * np.sin(8 * d.time))  # noqa: E731
+    else:
+        rig = RigParameters(vibration_velocity_amplitude_m_per_s=3e-3)
+        spec = rig_module.build_spec(rig, default_friction("dahl", rig), 1e-5)
+        rig_module.set_plugin_config(spec, "dynamometer",
+                                     {"tendon": "drive_spring", "time_constant": "2e-4"})
+        model = spec.compile()
+        drive = lambda d: None  # noqa: E731
+    data = mujoco.MjData(model)
+    for _ in range(2500):
+        drive(data)
+        mujoco.mj_step(model, data)
+    assert np.any(data.plugin_state != 0)
+    saved = {kind: np.empty(mujoco.mj_stateSize(model, kind)) for kind in
+             (FULL, mujoco.mjtState.mjSTATE_PHYSICS)}
+    for kind, buffer in saved.items():
+        mujoco.mj_getState(model, data, buffer, kind)
+    ctrl = data.ctrl.copy()
+    expected = _continue(model, copy.copy(data))
+    restored = {}
+    for kind, buffer in saved.items():
+        other = mujoco.MjData(model)
+        for _ in range(37):  # another life first
+            mujoco.mj_step(model, other)
+        other.ctrl[:] = ctrl
+        mujoco.mj_setState(model, other, buffer, kind)
+        restored[kind] = _continue(model, other)
+    assert np.array_equal(restored[FULL], expected)
+    assert not np.array_equal(restored[mujoco.mjtState.mjSTATE_PHYSICS], expected)
