@@ -112,11 +112,17 @@ def residual_spectrum(record: Record, residual: np.ndarray) -> Spectrum | None:
         dt = float(np.median(np.diff(t)))
         grid = np.arange(t[0], t[-1], dt)
         values = np.interp(grid, t, residual)
+    return uniform_spectrum(values, dt)
+
+
+def uniform_spectrum(values: np.ndarray, dt: float) -> Spectrum:
+    """Welch PSD of a uniformly sampled residual, its smoothed floor and its peaks (both
+    identification paths' ``residual_peaks_Hz``)."""
     n = len(values)
     # Segments of a quarter of the record (7 half-overlapping): fine enough to resolve a tone
     # of a few cycles per segment, averaged enough that the noise floor is smooth.
     nperseg = int(2 ** math.ceil(math.log2(max(64, n // 4))))
-    frequency, psd = welch(values - values.mean(), fs=1.0 / dt, nperseg=nperseg)
+    frequency, psd = welch(values - values.mean(), fs=1.0 / dt, nperseg=min(nperseg, n))
     floor = median_filter(psd, size=max(15, len(psd) // 8) | 1, mode="mirror")
     return Spectrum(frequency_Hz=frequency, psd=psd, floor=floor,
                     peaks_Hz=spectral_peaks(frequency, psd, floor))

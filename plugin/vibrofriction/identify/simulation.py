@@ -52,7 +52,7 @@ from scipy.optimize import least_squares
 from ..datasets import Dataset
 from ..errors import InputError
 from ..params import FrictionParameters, RigParameters, lugre_default_bristle_damping
-from .analysis import effective_samples, spectral_peaks
+from .analysis import effective_samples, uniform_spectrum
 from .fit import Metrics, _metrics
 from .model import EFFECT_INTERNALS, EFFECTS, Model, Scales
 from .replay import MAX_SUBSTEPS, Replayer, RigReplay, prepare_replay
@@ -907,18 +907,12 @@ def _tone_competition(problem: SimulationProblem, current: SimFit, fit: SimFit, 
 
 
 def _residual_peaks(problem: SimulationProblem, fit: SimFit) -> list[float]:
-    from scipy.ndimage import median_filter
-    from scipy.signal import welch
     channel = problem.primary
     residual = fit.predicted[channel] - problem.train.measured[channel]
-    dt = float(np.median(np.diff(problem.train.time_s)))
-    n = len(residual)
-    if n < 64:
+    if len(residual) < 64:
         return []
-    nperseg = int(2 ** math.ceil(math.log2(max(64, n // 4))))
-    frequency, psd = welch(residual - residual.mean(), fs=1.0 / dt, nperseg=min(nperseg, n))
-    floor = median_filter(psd, size=max(15, len(psd) // 8) | 1, mode="mirror")
-    return [round(f, 6) for f in spectral_peaks(frequency, psd, floor)]
+    dt = float(np.median(np.diff(problem.train.time_s)))
+    return [round(f, 6) for f in uniform_spectrum(residual, dt).peaks_Hz]
 
 
 __all__ = ["identify_by_simulation", "SimIdentification", "SimFit", "SimCandidate",
