@@ -125,3 +125,13 @@ def test_invalid_table_is_named(dahl_table):
     spec = planar.build_rig_spec(_rig(0.5), PART, timestep_s=1e-3, averaged_config=config)
     with pytest.raises(ValueError, match="table_angle"):
         spec.compile()
+
+
+@pytest.mark.parametrize("bad", ["0x10", "1e300", "inf"])
+def test_a_table_number_that_is_not_a_plain_decimal_is_named(dahl_table, bad):
+    config = dahl_table.config()
+    values = config["table_along"].split()
+    config["table_along"] = " ".join([bad] + values[1:])
+    spec = planar.build_rig_spec(_rig(0.5), PART, timestep_s=1e-3, averaged_config=config)
+    with pytest.raises(ValueError, match="table_along' has a non-number at position 0"):
+        spec.compile()

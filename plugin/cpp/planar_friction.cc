@@ -160,10 +160,17 @@ bool ReadNumberList(const mjModel* m, int instance, const char* plugin, const ch
     char* end = nullptr;
     errno = 0;
     const double value = std::strtod(cursor, &end);
-    if (end == cursor || errno == ERANGE || !std::isfinite(value) ||
+    // as ReadNumber: plain decimals only (strtod also reads "0x10", "1p3", "inf")
+    bool decimal = end != cursor;
+    for (const char* c = cursor; decimal && c < end; ++c) {
+      decimal = *c != 'x' && *c != 'X' && *c != 'p' && *c != 'P';
+    }
+    if (!decimal || errno == ERANGE || !std::isfinite(value) ||
+        std::fabs(value) > kLargestAttribute ||
         !(*end == '\0' || *end == ' ' || *end == '\t' || *end == '\n' || *end == '\r')) {
-      mju_warning("%s: attribute '%s' has a non-number at position %d; write finite numbers "
-                  "separated by spaces", plugin, attr, static_cast<int>(cursor - text));
+      mju_warning("%s: attribute '%s' has a non-number at position %d; write finite decimal "
+                  "numbers (at most %g in magnitude) separated by spaces", plugin, attr,
+                  static_cast<int>(cursor - text), kLargestAttribute);
       return false;
     }
     out->push_back(value);
