@@ -36,6 +36,8 @@ from .. import rig as rig_module
 from ..datasets import Dataset, smoothed_derivative
 from ..errors import InputError
 from ..params import FrictionParameters, RigParameters
+from .replay import (SampleGrid, contact_at_rest, full_state, noise_sd, substeps_of_record,
+                     uniform_times)
 
 
 # A scene says how a record maps onto it in MJCF custom text elements (kept in the model):
@@ -199,7 +201,6 @@ NOT_APPLICABLE = {
     "sensor_lag": "the drive force of a machine record is its controller's logged command",
     "normal_force_modulation": "the machine's support does not vibrate",
 }
-_ELASTIC_FRACTION = 0.9
 
 
 def machine(model: str, where: str = "", base: Path | None = None) -> MachineScene:
@@ -218,7 +219,7 @@ def machine(model: str, where: str = "", base: Path | None = None) -> MachineSce
 
 
 @dataclass(frozen=True, eq=False)
-class MachineReplay:
+class MachineReplay(SampleGrid):
     """A record set up for closed-loop replay in a machine scene (same interface as
     ``replay.RigReplay``)."""
 
@@ -244,18 +245,6 @@ class MachineReplay:
     lagged_sensor: str = "friction"
     # the timestep scan judges the simulator's error in the fit's weights (see simulation.py)
     timestep_in_fit_weights: bool = True
-
-    @property
-    def n(self) -> int:
-        return len(self.time_s)
-
-    @property
-    def nstep(self) -> int:
-        return (self.n - 1) * self.substeps + 1
-
-    @property
-    def channels(self) -> tuple[str, ...]:
-        return tuple(self.measured)
 
     @property
     def sample_interval_s(self) -> float:
@@ -324,15 +313,8 @@ class MachineReplay:
             # held, pending, last position, last filtered position, next sample time, started
             data.plugin_state[adr:adr + 6] = [0.0, 0.0, q0 - v0 * T, q0 - 1.5 * v0 * T,
                                               0.0, 1.0]
-        if friction.law != "coulomb" and model.na:
-            bound = _ELASTIC_FRACTION * friction.friction_coefficient * self.rig.normal_force_N
-            force = min(max(self.initial_friction_N, -bound), bound)
-            data.act[model.actuator(FRICTION_ACTUATOR).actadr] = \
-                force / friction.contact_stiffness_N_per_m
-        kind = mujoco.mjtState.mjSTATE_FULLPHYSICS
-        state = np.empty(mujoco.mj_stateSize(model, kind))
-        mujoco.mj_getState(model, data, state, kind)
-        return state
+        contact_at_rest(model, data, friction, self.initial_friction_N, self.rig.normal_force_N)
+        return full_state(model, data)
 
     def outputs(self, model: mujoco.MjModel, rig: RigParameters, sensordata: np.ndarray,
                 names: Sequence[str]) -> dict[str, np.ndarray]:
@@ -447,21 +429,13 @@ def prepare_machine_replay(dataset: Dataset, *, substeps: int | None = None) -> 
         raise InputError(f"{where}: the {dataset.metadata.model} model needs "
                          f"{', '.join(missing)} (its controller's reference and the position "
                          "its state starts from); the record lacks it (see dataset-format.md)")
-    t = np.asarray(dataset.time_s, dtype=float)
-    if len(t) < 16:
-        raise InputError(f"{where}: {len(t)} samples; identification needs at least 16")
-    dt = np.diff(t)
-    sample_dt = _sample_interval(t)
-    if np.ptp(dt) > 1e-3 * sample_dt:
-        raise InputError(f"{where}: the replay needs uniformly sampled data (time steps from "
-                         f"{dt.min():.6g} to {dt.max():.6g} s); resample the record")
+    t, sample_dt = uniform_times(dataset, where, _sample_interval)
     measured = {c: np.asarray(columns[c], dtype=float) for c in OUTPUT_CHANNELS
                 if c in columns and c not in scene.inputs}
     if not measured:
         raise InputError(f"{where}: the record has no output of the model {scene.name} to "
                          f"fit ({', '.join(c for c in OUTPUT_CHANNELS if c not in scene.inputs)}"
                          "); every column it has drives the model")
-    from .replay import substeps_of_record
     substeps, from_record = substeps_of_record(dataset, sample_dt, substeps)
     substeps = int(substeps or 1)
     if not 1 <= substeps <= 64:
@@ -484,7 +458,6 @@ def prepare_machine_replay(dataset: Dataset, *, substeps: int | None = None) -> 
     normal = scene.constant_normal_N or 1.0
     rig = RigParameters(mass_kg=mass_start, normal_force_N=normal, drive_velocity_m_per_s=1.0)
     v_scale = math.sqrt(float(np.mean(velocity ** 2))) or 1e-3
-    from .replay import noise_sd
     return MachineReplay(
         name=dataset.name, scene=scene, time_s=t, substeps=substeps,
         timestep_s=sample_dt / substeps, control=_control(scene, inputs, len(t), substeps),

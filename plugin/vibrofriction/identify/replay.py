@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Sequence
+from typing import Callable, Sequence
 
 import mujoco
 import numpy as np
@@ -56,14 +56,65 @@ NOISE_FLOOR_OF_RANGE = 1e-4
 VIBRATION_HARMONICS = 3
 ENVELOPE_BANDWIDTH = 0.25
 _CASES_PER_ROLLOUT = 16
+MIN_SAMPLES = 16  # a record shorter than this identifies nothing
 RIG_MODEL = "rig"  # the sidecar's "model" of a rig record (the default when absent)
 # Unit normal load when the record gives none: the fitted coefficient is then the level in N.
 UNIT_NORMAL_FORCE_N = 1.0
 _ELASTIC_FRACTION = 0.9  # initial deflection at most this fraction of the sliding deflection
 
 
+class SampleGrid:
+    """What every replay derives from its record's samples (``time_s``, ``substeps``,
+    ``measured``): the rig's and a machine's (``machine_replay.MachineReplay``)."""
+
+    @property
+    def n(self) -> int:
+        return len(self.time_s)
+
+    @property
+    def nstep(self) -> int:
+        return (self.n - 1) * self.substeps + 1
+
+    @property
+    def channels(self) -> tuple[str, ...]:
+        return tuple(self.measured)
+
+
+def uniform_times(dataset: Dataset, where: str, sample_dt: Callable[[np.ndarray], float]
+                  ) -> tuple[np.ndarray, float]:
+    """(times, sample interval) of a record a replay can step through: at least
+    ``MIN_SAMPLES`` samples, evenly spaced (``sample_dt`` gives the interval from the times)."""
+    t = np.asarray(dataset.time_s, dtype=float)
+    if len(t) < MIN_SAMPLES:
+        raise InputError(f"{where}: {len(t)} samples; identification needs at least "
+                         f"{MIN_SAMPLES}")
+    dt = np.diff(t)
+    interval = sample_dt(t)
+    if np.ptp(dt) > 1e-3 * interval:
+        raise InputError(f"{where}: the replay needs uniformly sampled data (time steps from "
+                         f"{dt.min():.6g} to {dt.max():.6g} s); resample the record")
+    return t, interval
+
+
+def contact_at_rest(model: mujoco.MjModel, data: mujoco.MjData, friction: FrictionParameters,
+                    force_N: float, normal_force_N: float) -> None:
+    """The element's deflection holding ``force_N`` (within the elastic range) in
+    ``data.act``; nothing for Coulomb."""
+    if friction.law != "coulomb" and model.na:
+        bound = _ELASTIC_FRACTION * friction.friction_coefficient * normal_force_N
+        force = min(max(force_N, -bound), bound)
+        data.act[model.actuator("friction").actadr] = force / friction.contact_stiffness_N_per_m
+
+
+def full_state(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+    kind = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state = np.empty(mujoco.mj_stateSize(model, kind))
+    mujoco.mj_getState(model, data, state, kind)
+    return state
+
+
 @dataclass(frozen=True, eq=False)
-class RigReplay:
+class RigReplay(SampleGrid):
     """A record set up for replay in the rig: inputs as controls, outputs as channels."""
 
     name: str
@@ -84,18 +135,6 @@ class RigReplay:
     initial_friction_N: float
     vibrating: bool
     timestep_from_record: bool = False  # substeps from the sidecar's simulation_timestep_s
-
-    @property
-    def n(self) -> int:
-        return len(self.time_s)
-
-    @property
-    def nstep(self) -> int:
-        return (self.n - 1) * self.substeps + 1
-
-    @property
-    def channels(self) -> tuple[str, ...]:
-        return tuple(self.measured)
 
     @property
     def lagged_sensor(self) -> str:
@@ -162,15 +201,8 @@ class RigReplay:
         data.qvel[joint["slider_on_table"].dofadr[0]] = (self.initial_velocity_m_per_s -
                                                          self.initial_support_velocity_m_per_s)
         data.qvel[joint["drive_end_slide"].dofadr[0]] = self.rig.drive_velocity_m_per_s
-        if friction.law != "coulomb" and model.na:
-            k_t = friction.contact_stiffness_N_per_m
-            bound = _ELASTIC_FRACTION * friction.friction_coefficient * self.rig.normal_force_N
-            force = min(max(self.initial_friction_N, -bound), bound)
-            data.act[model.actuator("friction").actadr] = force / k_t
-        kind = mujoco.mjtState.mjSTATE_FULLPHYSICS
-        state = np.empty(mujoco.mj_stateSize(model, kind))
-        mujoco.mj_getState(model, data, state, kind)
-        return state
+        contact_at_rest(model, data, friction, self.initial_friction_N, self.rig.normal_force_N)
+        return full_state(model, data)
 
 
 class Replayer:
@@ -256,14 +288,7 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
     where = str(dataset.source_path or dataset.name)
     meta = dataset.metadata
     columns = dataset.columns
-    t = np.asarray(dataset.time_s, dtype=float)
-    if len(t) < 16:
-        raise InputError(f"{where}: {len(t)} samples; identification needs at least 16")
-    dt = np.diff(t)
-    sample_dt = float(np.median(dt))
-    if np.ptp(dt) > 1e-3 * sample_dt:
-        raise InputError(f"{where}: the rig replay needs uniformly sampled data (time steps "
-                         f"from {dt.min():.6g} to {dt.max():.6g} s); resample the record")
+    t, sample_dt = uniform_times(dataset, where, lambda t: float(np.median(np.diff(t))))
     # (the dataset format guarantees a force column: drive_force_N or friction_force_N)
     measured = {c: np.asarray(columns[c], dtype=float) for c in OUTPUT_CHANNELS if c in columns}
     missing = [k for k in ("drive_stiffness_N_per_m", "drive_velocity_m_per_s")

@@ -37,6 +37,7 @@ from .analysis import ResidualAnalysis, analyse
 from .fit import FitResult, Problem
 from .model import EFFECTS, EFFECT_INTERNALS, Model, Scales
 from .record import Record, prepare
+from .replay import MIN_SAMPLES
 
 BIC_THRESHOLD = -10.0
 MIN_IMPROVEMENT = 0.02
@@ -188,9 +189,6 @@ def check_law_and_effects(law: str, declared: Sequence[str]) -> None:
     if unknown:
         raise InputError(f"unknown effect(s) {', '.join(unknown)}; the vocabulary is "
                          f"{', '.join(EFFECTS)}")
-
-
-MIN_SAMPLES = 16
 
 
 def check_identifiable(dataset) -> None:

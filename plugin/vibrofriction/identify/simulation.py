@@ -546,8 +546,10 @@ def _closed_loop_errors(problem: SimulationProblem, fit: SimFit) -> dict[str, di
     """A machine's closed-loop errors as its benchmark defines them, on every record."""
     from .machine_replay import closed_loop_errors
     extra = ("position_m", "velocity_m_per_s")  # (and every measured channel)
-    out = {"train": closed_loop_errors(problem.train, problem.runner.run(
-        [problem.case(fit.model, fit.values)], extra)[0])}
+    # the training record's prediction is the fit's own (a machine's relative velocity is
+    # its velocity); held-out records are simulated here
+    train = {"velocity_m_per_s": fit.predicted["relative_velocity_m_per_s"], **fit.predicted}
+    out = {"train": closed_loop_errors(problem.train, train)}
     for replay, runner in zip(problem.validation, problem.held_runners):
         predicted = runner.run([problem.case(fit.model, fit.values, replay)], extra)[0]
         out[replay.name] = closed_loop_errors(replay, predicted)
