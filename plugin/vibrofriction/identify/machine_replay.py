@@ -293,11 +293,13 @@ class MachineReplay(SampleGrid):
         return spec
 
     def initial_state(self, model: mujoco.MjModel, friction: FrictionParameters,
-                      data: mujoco.MjData) -> np.ndarray:
+                      data: mujoco.MjData, initial_velocity_m_per_s: float | None = None
+                      ) -> np.ndarray:
         mujoco.mj_resetData(model, data)
         joint = model.joint(self.scene.joint)
         data.qpos[joint.qposadr[0]] = self.initial_position_m
-        data.qvel[joint.dofadr[0]] = self.initial_velocity_m_per_s
+        data.qvel[joint.dofadr[0]] = self.initial_velocity_m_per_s \
+            if initial_velocity_m_per_s is None else initial_velocity_m_per_s
         # The controller as it was running when the record starts: its filter on the motion
         # the first samples show (q_{-1} = q_0 - v_0 T), its next sample now.
         controller = -1 if self.scene.controller is None else \

@@ -87,8 +87,8 @@ class Scales:
 
 
 def parameter_table(law: str, effects: Sequence[str], fit_mass: bool,
-                    scales: Scales) -> list[Param]:
-    """Internal coordinates for a law + effects (+ mass)."""
+                    scales: Scales, state: Sequence[str] = ()) -> list[Param]:
+    """Internal coordinates for a law + effects (+ mass, + initial-state values)."""
     fn = scales.normal_force_N
     f, v = scales.force_N, scales.velocity_m_per_s
     mu = f / fn
@@ -119,6 +119,8 @@ def parameter_table(law: str, effects: Sequence[str], fit_mass: bool,
         "sensor_lag_s": Param("sensor_lag_s", 0.0, 1e4 * scales.dt_s, scales.dt_s),
         "force_offset_N": Param("force_offset_N", -1e3 * f, 1e3 * f, 0.1 * f),
         "mass_kg": Param("mass_kg", 1e-9, 1e9, 1.0),
+        # the replayed body's velocity at the first sample, where the record does not measure it
+        "initial_velocity_m_per_s": Param("initial_velocity_m_per_s", -1e3 * v, 1e3 * v, v),
     }
     # Within the vocabulary's limits (params.LIMITS): a fit never proposes a value the
     # plugin or the parameter check would refuse.
@@ -137,6 +139,7 @@ def parameter_table(law: str, effects: Sequence[str], fit_mass: bool,
         names.extend(EFFECT_INTERNALS[effect])
     if fit_mass:
         names.append("mass_kg")
+    names.extend(state)
     return [table[name] for name in names]
 
 
@@ -174,15 +177,18 @@ class Model:
     fit_mass: bool
     params: tuple[Param, ...]
     base: FrictionParameters = field(default_factory=FrictionParameters)
+    # initial-state values fitted with the parameters (a nuisance, not part of the model
+    # users simulate): ``initial_velocity_m_per_s`` where the record does not measure it
+    state: tuple[str, ...] = ()
 
     @classmethod
     def build(cls, law: str, effects: Sequence[str], fit_mass: bool, scales: Scales,
-              base: FrictionParameters | None = None) -> "Model":
+              base: FrictionParameters | None = None, state: Sequence[str] = ()) -> "Model":
         effects = tuple(e for e in EFFECTS if e in effects)
         base = base or FrictionParameters(law=law)
         return cls(law=law, effects=effects, fit_mass=fit_mass,
-                   params=tuple(parameter_table(law, effects, fit_mass, scales)),
-                   base=replace(base, law=law))
+                   params=tuple(parameter_table(law, effects, fit_mass, scales, state)),
+                   base=replace(base, law=law), state=tuple(state))
 
     @property
     def names(self) -> list[str]:
@@ -221,7 +227,8 @@ class Model:
         return out
 
     def extended(self, effect: str, scales: Scales) -> "Model":
-        return Model.build(self.law, (*self.effects, effect), self.fit_mass, scales, self.base)
+        return Model.build(self.law, (*self.effects, effect), self.fit_mass, scales, self.base,
+                           self.state)
 
     # ------------------------------------------------------------------------------ predict
 

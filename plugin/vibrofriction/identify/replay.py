@@ -137,6 +137,14 @@ class RigReplay(SampleGrid):
     timestep_from_record: bool = False  # substeps from the sidecar's simulation_timestep_s
 
     @property
+    def estimated_state(self) -> tuple[str, ...]:
+        """Initial-state values identification fits with the parameters: the slider's
+        velocity where the record does not measure it (a smoothing estimate at the first
+        sample is biased by the vibration and the start of the motion, and an undamped
+        contact carries its error through the whole record)."""
+        return () if "velocity_m_per_s" in self.measured else ("initial_velocity_m_per_s",)
+
+    @property
     def lagged_sensor(self) -> str:
         """The sensor whose lag ``sensor_lag_s`` is: the friction sensor's when the record
         measures friction, else the dynamometer's (``drive_force_N``)."""
@@ -189,8 +197,13 @@ class RigReplay(SampleGrid):
         return spec.compile()
 
     def initial_state(self, model: mujoco.MjModel, friction: FrictionParameters,
-                      data: mujoco.MjData) -> np.ndarray:
+                      data: mujoco.MjData, initial_velocity_m_per_s: float | None = None
+                      ) -> np.ndarray:
+        """The state at the first sample (``initial_velocity_m_per_s``: the slider's, in place
+        of the record's measured or estimated one)."""
         mujoco.mj_resetData(model, data)
+        v0 = self.initial_velocity_m_per_s if initial_velocity_m_per_s is None else \
+            initial_velocity_m_per_s
         joint = {name: model.joint(name) for name in
                  ("table_slide", "slider_on_table", "drive_end_slide")}
         u0, x0 = self.initial_support_position_m, self.initial_position_m
@@ -198,8 +211,8 @@ class RigReplay(SampleGrid):
         data.qpos[joint["slider_on_table"].qposadr[0]] = x0 - u0
         data.qpos[joint["drive_end_slide"].qposadr[0]] = self.initial_drive_end_m
         data.qvel[joint["table_slide"].dofadr[0]] = self.initial_support_velocity_m_per_s
-        data.qvel[joint["slider_on_table"].dofadr[0]] = (self.initial_velocity_m_per_s -
-                                                         self.initial_support_velocity_m_per_s)
+        data.qvel[joint["slider_on_table"].dofadr[0]] = \
+            v0 - self.initial_support_velocity_m_per_s
         data.qvel[joint["drive_end_slide"].dofadr[0]] = self.rig.drive_velocity_m_per_s
         contact_at_rest(model, data, friction, self.initial_friction_N, self.rig.normal_force_N)
         return full_state(model, data)
@@ -223,12 +236,13 @@ class Replayer:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    def run(self, cases: Sequence[tuple[RigParameters, FrictionParameters]],
-            extra: Sequence[str] = ()) -> list[dict[str, np.ndarray]]:
-        """Predicted channels at the record's samples, one dict per case (``extra`` adds
+    def run(self, cases: Sequence[tuple], extra: Sequence[str] = ()
+            ) -> list[dict[str, np.ndarray]]:
+        """Predicted channels at the record's samples, one dict per case: (RigParameters,
+        FrictionParameters[, initial-state values for ``initial_state``]) (``extra`` adds
         unmeasured channels, e.g. friction_force_N and relative_position_m of a drive record)."""
         replay = self.replay
-        models = [replay.model(r, f) for r, f in cases]
+        models = [replay.model(case[0], case[1]) for case in cases]
         rows = slice(0, replay.nstep, replay.substeps)
         names = list(replay.channels) + [c for c in extra if c not in replay.channels]
         out: list[dict[str, np.ndarray] | None] = [None] * len(models)
@@ -241,7 +255,9 @@ class Replayer:
         for members in chunks:  # rollout keeps every step of every case: bound the memory
             group = [models[i] for i in members]
             datas = [mujoco.MjData(group[0]) for _ in range(self.threads)]
-            states = np.stack([replay.initial_state(models[i], cases[i][1], datas[0])
+            states = np.stack([replay.initial_state(models[i], cases[i][1], datas[0],
+                                                    **(cases[i][2] if len(cases[i]) > 2
+                                                       else {}))
                                for i in members])
             control = np.broadcast_to(replay.control, (len(group), *replay.control.shape))
             _, sensordata = self._pool.rollout(group, datas, states,
@@ -330,11 +346,14 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
         if vibrating:
             # Only the vibration is kept: a vibrometer's broadband noise would otherwise shake
             # the contact like a real dither (20 um/s at 100 kHz makes a LuGre slider creep by
-            # ~10 nm in 20 ms) and its integral would drift as a random walk.
-            support_velocity = vibration_band(support_velocity, sample_dt, frequency)
-        integral = make_interp_spline(t, support_velocity, k=3).antiderivative()
-        support_position = integral(t) - integral(t[0])
-        table = integral(step_ends, extrapolate=True) - integral(t[0])
+            # ~10 nm in 20 ms) and its integral would drift as a random walk. A velocity with
+            # no such noise is kept whole (the band would smear an abrupt start).
+            band = vibration_band(support_velocity, sample_dt, frequency)
+            if broadband_noise_sd(support_velocity, band) > \
+                    NOISE_FLOOR_OF_RANGE * float(np.ptp(support_velocity)):
+                support_velocity = band
+        support_position, table = support_displacement(
+            t, support_velocity, step_ends, meta.simulation_timestep_s)
     else:
         support_position = np.zeros_like(t)
         table = np.zeros(nstep)
@@ -391,6 +410,34 @@ def substeps_of_record(dataset: Dataset, sample_dt: float,
                          f"sample interval {sample_dt:g} s into 1 to 64 steps; fix the "
                          "sidecar or pass --substeps")
     return round(ratio), True  # replayed as the record was simulated
+
+
+def broadband_noise_sd(velocity: np.ndarray, band: np.ndarray) -> float:
+    """Robust sd of what the vibration band removes from a measured velocity (its sensor's
+    broadband noise; a few samples at an abrupt start do not count)."""
+    removed = np.asarray(velocity, dtype=float) - band
+    return 1.4826 * float(np.median(np.abs(removed - np.median(removed))))
+
+
+def support_displacement(t: np.ndarray, velocity: np.ndarray, step_ends: np.ndarray,
+                         simulation_timestep_s: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """(displacement at the samples, at the replay's step ends) from a support's velocity,
+    0 at the first sample.
+
+    A sensor's velocity is the velocity at its sample time: the exact integral of its cubic
+    spline. A simulator's (a record with ``simulation_timestep_s`` h) is the mean over the
+    step that ends at the sample, (u_k - u(t_k - h)) / h: at one step a sample its running
+    sum is the simulator's own displacement exactly; at more, the spline is placed at the
+    steps' midpoints t - h/2 (a sensor's spline would lag by half a step: 6 % of the
+    amplitude at 50 samples a period)."""
+    dt = float(np.median(np.diff(t)))
+    h = simulation_timestep_s or 0.0
+    if h > 0 and abs(h - dt) <= 1e-6 * dt:
+        at_samples = np.concatenate([[0.0], np.cumsum(velocity[1:] * np.diff(t))])
+        return at_samples, make_interp_spline(t, at_samples, k=3)(step_ends, extrapolate=True)
+    integral = make_interp_spline(t - h / 2, velocity, k=3).antiderivative()
+    return (integral(t) - integral(t[0]),
+            integral(step_ends, extrapolate=True) - integral(t[0]))
 
 
 def vibration_band(velocity: np.ndarray, dt: float, frequency_Hz: float) -> np.ndarray:

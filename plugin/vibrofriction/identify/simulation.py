@@ -161,6 +161,8 @@ class SimulationProblem:
         self.noise = dict(train.noise)  # channel -> sd the residual is divided by
         self.weights = {c: 1.0 / train.noise[c] for c in train.channels}
         self.floor = 0.0
+        # initial-state values fitted with the parameters (the training record's only)
+        self.state: tuple[str, ...] = tuple(getattr(train, "estimated_state", ()))
 
     def reweight(self, fit: SimFit) -> None:
         """Maximum-likelihood channel weights: each channel's sd becomes at least the rms of
@@ -185,14 +187,17 @@ class SimulationProblem:
     # -------------------------------------------------------------------- model evaluation
 
     def case(self, model: Model, values: Mapping[str, float],
-             replay: RigReplay | None = None) -> tuple[RigParameters, FrictionParameters]:
+             replay: RigReplay | None = None
+             ) -> tuple[RigParameters, FrictionParameters, dict[str, float]]:
         replay = replay or self.train
         friction = model.friction_parameters(values)
         mass = values.get("mass_kg", replay.rig.mass_kg if replay.mass_known else
                           self.train.rig.mass_kg)
         rig = replace(replay.rig, mass_kg=mass,
                       drive_damping_N_s_per_m=values.get("drive_damping_N_s_per_m", 0.0))
-        return rig, friction
+        initial = {n: values[n] for n in model.state if n in values} \
+            if replay is self.train else {}
+        return rig, friction, initial
 
     def predict(self, model: Model, value_sets: Sequence[Mapping[str, float]],
                 extra: Sequence[str] = ()) -> list[dict[str, np.ndarray]]:
@@ -358,7 +363,8 @@ def _converged_timestep(problem: SimulationProblem, train: Dataset, law: str,
     fit_mass = not problem.train.mass_known
     declared = tuple(e for e in EFFECTS if e in declared)
     scales, starts = _start(problem, law, fit_mass, declared)
-    model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law))
+    model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law),
+                        problem.state)
     case = problem.case(model, model.values(model.internal(starts[0])))
     steps = problem.train.substeps
     with Replayer(problem.train, problem.runner.threads) as runner:
@@ -398,7 +404,8 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
     skipped = _not_applicable(replay, law, declared)
     declared = tuple(e for e in EFFECTS if e in declared and e not in skipped)
     scales, starts = scan or _start(problem, law, fit_mass, declared)
-    model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law))
+    model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law),
+                        problem.state)
     say(f"baseline: fitting {model.k} parameters ({', '.join(model.names)}) from the "
         f"{len(starts)} best start(s) of a scan")
     # Several starts: a record that measures little of the contact (position and drive force
@@ -509,7 +516,7 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
         # modulation's mean) is dropped when the model without it is as good by the same test.
         for earlier in [e for e in selected[:-1] if e not in declared]:
             reduced = Model.build(law, [e for e in current.model.effects if e != earlier],
-                                  fit_mass, scales, current.model.base)
+                                  fit_mass, scales, current.model.base, current.model.state)
             start = {k: v for k, v in current.model.internal_values(current.q).items()
                      if k in reduced.names}
             without = problem.fit(reduced, start, BASELINE_EVALUATIONS)
@@ -595,7 +602,8 @@ def _start(problem: SimulationProblem, law: str, fit_mass: bool,
     scales = Scales(force_N=level, velocity_m_per_s=replay.velocity_scale_m_per_s,
                     normal_force_N=normal, dt_s=dt,
                     travel_m=float(np.ptp(replay.measured.get("position_m", [0.0]))) or 1e-3)
-    model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law))
+    model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law),
+                        problem.state)
 
     def start(lv: float, deflection: float | None, shape: Mapping[str, float]) -> dict:
         # (with a Stribeck curve the level scanned is its peak, mu F_N static_ratio)
@@ -610,6 +618,8 @@ def _start(problem: SimulationProblem, law: str, fit_mass: bool,
                     k_t, replay.rig.mass_kg)
         if fit_mass:
             values["mass_kg"] = replay.rig.mass_kg
+        if "initial_velocity_m_per_s" in problem.state:
+            values["initial_velocity_m_per_s"] = replay.initial_velocity_m_per_s
         return values
 
     def best(trials: list[tuple], count: int) -> list[tuple]:
