@@ -2,13 +2,19 @@
 exit code 2, no traceback, nothing written and nothing existing changed."""
 from __future__ import annotations
 
+import os
+import signal
+import sys
+import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from vibrofriction import cli
-from vibrofriction.datasets import Dataset, DatasetMetadata, write_dataset
+from vibrofriction.datasets import (Dataset, DatasetError, DatasetMetadata, all_or_nothing,
+                                    write_dataset)
+from vibrofriction.identify.report import write_folder
 
 SHORT = ["--duration", "0.01"]
 
@@ -38,6 +44,17 @@ def _records(folder: Path) -> None:
         else:
             write_dataset(Dataset(name=name, columns=columns, metadata=DatasetMetadata()),
                           folder / f"{name}.csv")
+    rows = [f"{i / 1000},{m},{f}" for i, (m, f) in enumerate(zip(motion, force))]
+    rows[50] = rows[50].replace("0.05,", "0.2,")  # line 52: 0.2, then line 53: 0.051
+    tiny = "\n".join(f"{i * 1e-300!r},{m},{f}" for i, (m, f) in enumerate(zip(motion, force)))
+    for name, text in {"backwards": "\n".join(rows), "tiny_steps": tiny}.items():
+        (folder / f"{name}.csv").write_text("time_s,position_m,friction_force_N\n" + text + "\n")
+        (folder / f"{name}.json").write_text("{}\n")
+    # a pneumatic-seal text cut off inside its last number (the originals end with CR LF)
+    seal = "".join(f"{10 * i:.3f}\t3.474\t1.499\t3.248\t{0.1 * np.sin(i):.3f}\t2.997\t"
+                   f"151.092\r\n" for i in range(40))
+    (folder / "cut.txt").write_text(seal + "400.000\t3.474\t1.499\t3.248\t0.013\t2.997\t15",
+                                    newline="")
 
 
 CASES = [
@@ -55,6 +72,38 @@ CASES = [
     (["identify", "good.csv", "--out", "a_file"], "--out a_file: a_file is a file"),
     (["identify", "good.csv", "--json", "a_folder"], "--json a_folder is a folder"),
     (["convert", "emps", "missing.mat", "--out", "a_folder"], "--out a_folder is a folder"),
+    # every target checked before anything is computed or written; the user's path named
+    (["simulate", "--csv", "run.csv", "--json", "/proc/x.json", *SHORT],
+     "--json /proc/x.json: cannot write in /proc"),
+    (["identify", "good.csv", "--json", "/proc/x.json"], "--json /proc/x.json: cannot write"),
+    (["simulate", "--csv", "run.csv", "--json", "run.json", *SHORT],
+     "--json run.json is also written as the sidecar of --csv run.csv"),
+    # an existing --out is replaced as a whole: only an earlier report or an empty folder
+    (["identify", "good.csv", "--out", "a_folder"], "not an earlier report (no report.json)"),
+    (["identify", "good.csv", "--out", "."], "holds the current folder"),
+    # too many steps: the parameter values that made the default duration or timestep
+    (["simulate", "--set", "normal_force_N=1e9"],
+     "the default duration 800000 s (two loadings of the drive spring to breakaway"),
+    (["simulate", "--set", "drive_velocity_m_per_s=1e-9"], "--set a smaller normal_force_N or "
+     "a larger drive_velocity_m_per_s"),
+    (["sweep", "--va", "1e3"], "kappa_v = vibration_velocity_amplitude_m_per_s / "
+     "drive_velocity_m_per_s = 1000/0.0005"),
+    (["simulate", "--duration", "1e6", "--timestep", "1e-3"],
+     "--duration 1e+06 s at --timestep 0.001 s is 1e+09 steps"),
+    # negative numbers in scientific notation are values: the option's own check speaks
+    (["sweep", "--va", "-1e-3"], "--va entry '-1e-3' must be a finite velocity amplitude >= 0"),
+    (["simulate", "--timestep", "-1e-5", *SHORT], "--timestep -1e-05 must be a finite number"),
+    (["simulate", "--duration", "-1E-3"], "--duration '-1E-3' must be a finite number"),
+    (["simulate", "--set", "mass_kg=-1e-3", *SHORT], "mass_kg=-0.001"),
+    # plain numbers in messages, never np.float64(...)
+    (["identify", "backwards.csv"], "line 53, column 'time_s': 0.051 is not after the "
+     "previous row's 0.2"),
+    # a sample interval below 1 ns is a unit or a glitch
+    (["identify", "tiny_steps.csv"], "line 3, column 'time_s': 1e-300 s after the previous row"),
+    (["simulate", "--csv", "run.csv", "--timestep", "1e-10", "--duration", "1e-4"],
+     "finer than the 1e-09 s a dataset accepts"),
+    # a truncated source file
+    (["convert", "pneumatic-seal", "cut.txt", "--out", "seal.csv"], "line 41 ('400.000"),
 ]
 
 
@@ -71,7 +120,7 @@ def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, monkeypatch, 
     err = capsys.readouterr().err
     assert code == 2
     assert "Traceback" not in err and len(err.strip().splitlines()) == 1, err
-    assert words in err
+    assert words in err and "np.float64" not in err and ".tmp" not in err, err
     after = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
     assert after == before  # nothing written, nothing existing changed
     assert sorted(p.name for p in tmp_path.iterdir() if p.is_dir()) == ["a_folder"]
@@ -84,3 +133,131 @@ def test_a_held_body_on_a_moving_support_and_an_absolute_clock_are_accepted():
         "time_s": t, "position_m": np.zeros_like(t), "friction_force_N": np.sin(50 * t),
         "support_velocity_m_per_s": np.cos(30 * t)})
     check_identifiable(held)  # the counterface moves under a body held on a load cell
+
+
+def _one_line_exit_2(capsys, code: int, words: str) -> None:
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+    assert words in err, err
+
+
+def _files(folder: Path) -> dict[Path, bytes]:
+    return {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+
+
+def test_a_failed_simulate_keeps_the_previous_csv(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["simulate", "--csv", "run.csv", *SHORT]) == 0
+    capsys.readouterr()
+    (tmp_path / "run.json").unlink()
+    (tmp_path / "run.json").mkdir()  # the sidecar cannot be written
+    before = _files(tmp_path)
+    _one_line_exit_2(capsys, cli.main(["simulate", "--csv", "run.csv", *SHORT]),
+                     "--csv run.csv: its sidecar run.json is a folder")
+    assert _files(tmp_path) == before  # the previous run.csv survives unchanged
+
+
+def test_outputs_are_all_or_nothing_when_the_last_one_fails(tmp_path, monkeypatch, capsys):
+    """Past the checks (here switched off), a target that fails at the end undoes the others:
+    the previous run.csv and run.json are back, no temporary file is left, and the message
+    names the user's path, not a temporary one."""
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["simulate", "--csv", "run.csv", *SHORT]) == 0
+    capsys.readouterr()
+    before = _files(tmp_path)
+    monkeypatch.setattr(cli, "check_writable", lambda *args, **kwargs: None)
+    code = cli.main(["simulate", "--csv", "run.csv", "--json", "/proc/x.json", *SHORT,
+                     "--set", "mass_kg=0.7"])
+    _one_line_exit_2(capsys, code, "/proc/x.json: cannot write")
+    assert _files(tmp_path) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.csv", "run.json"]
+
+
+def test_a_failed_rename_restores_every_target(tmp_path, monkeypatch):
+    (tmp_path / "run.csv").write_text("old csv")
+    (tmp_path / "run.json").write_text("old json")
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "report.json").write_text("old report")
+    before = _files(tmp_path)
+    rename = os.rename
+
+    def failing(source, target):
+        if Path(target) == tmp_path / "run.json" and ".tmp" in str(source):
+            raise PermissionError(13, "Permission denied")
+        rename(source, target)
+
+    monkeypatch.setattr(os, "rename", failing)
+    dataset = Dataset(name="run", metadata=DatasetMetadata(), columns={
+        "time_s": [0.0, 1.0], "position_m": [0.0, 1.0], "friction_force_N": [0.0, 1.0]})
+    with pytest.raises(DatasetError, match=r"run.json: cannot write: Permission denied"):
+        with all_or_nothing():
+            write_folder(tmp_path / "out", lambda tmp: (tmp / "report.json").write_text("new"))
+            write_dataset(dataset, tmp_path / "run.csv")
+    assert _files(tmp_path) == before  # the folder and run.csv placed, then put back
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "run.csv", "run.json"]
+
+
+def test_an_existing_out_folder_is_replaced_as_a_whole(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    _records(tmp_path)
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "report.json").write_text("{}")
+    (tmp_path / "out" / "stale.png").write_text("from an earlier run")
+    assert cli.main(["identify", "good.csv", "--out", "out", "--method", "inverse",
+                     "--no-figures"]) == 0
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["report.json", "report.md"]
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+    capsys.readouterr()
+    with pytest.raises(SystemExit):
+        cli.main(["identify", "--help"])
+    assert "is replaced as a whole: files in it that this run does not write are deleted" in \
+        " ".join(capsys.readouterr().out.split())  # the rule, said where --out is explained
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+def test_sigterm_while_writing_leaves_the_old_folder_and_no_temporary(tmp_path):
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "report.json").write_text("old")
+    handler = signal.getsignal(signal.SIGTERM)
+
+    def write(tmp: Path) -> None:
+        (tmp / "report.json").write_text("new")
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(5)  # the handler raises here
+
+    with pytest.raises(SystemExit) as exc:
+        write_folder(tmp_path / "out", write)
+    assert exc.value.code == 128 + signal.SIGTERM
+    assert signal.getsignal(signal.SIGTERM) == handler  # restored
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+    assert (tmp_path / "out" / "report.json").read_text() == "old"
+
+
+def test_a_mujoco_version_mismatch_is_one_line_exit_2(tmp_path, monkeypatch, capsys):
+    from vibrofriction import _build_info, _native
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(_build_info, "MUJOCO_VERSION", "0.0.1")
+    monkeypatch.setattr(_native, "_library", None)  # as in a fresh process: load() checks
+    _one_line_exit_2(capsys, cli.main(["simulate", *SHORT]),
+                     "compiled against MuJoCo 0.0.1 but MuJoCo")
+    assert not any(tmp_path.iterdir())
+
+
+def test_parameter_messages_show_plain_numbers_for_numpy_values():
+    from vibrofriction.params import ParameterError, RigParameters
+    for value, words in ((-1.0, "mass_kg=-1.0 must be > 0"), (1e-300, "mass_kg=1e-300 must lie")):
+        with pytest.raises(ParameterError) as exc:
+            RigParameters(mass_kg=np.float64(value)).validate()
+        assert words in str(exc.value) and "np." not in str(exc.value)
+
+
+def test_a_run_larger_than_memory_is_one_line_exit_2(tmp_path, monkeypatch, capsys):
+    from vibrofriction import rig
+
+    def too_large(*args, **kwargs):
+        raise MemoryError("Unable to allocate 33.6 GiB for an array")
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(rig, "simulate_many", too_large)
+    _one_line_exit_2(capsys, cli.main(["simulate", *SHORT]), "not enough memory")

@@ -115,6 +115,27 @@ def test_pneumatic_bad_cell_names_line_and_column(tmp_path: Path) -> None:
         convert_pneumatic_seal(bad)
 
 
+SEAL_ROWS = "".join(f"{10 * i:.3f}\t3.474\t1.499\t3.248\t{0.01 * i:.3f}\t2.997\t151.092\r\n"
+                    for i in range(3))
+
+
+@pytest.mark.parametrize("last", ["30.000\t3.474\t1.499\t3.248\t0.030\t2.997\t151.0",
+                                  "30.000\t3.474\t1.499\t3.248\t0.030\t2.997\t15",
+                                  "30.000\t3.474\t1.4"])
+def test_pneumatic_file_cut_inside_its_last_row_is_refused(tmp_path: Path, last: str) -> None:
+    cut = tmp_path / "seal.txt"
+    cut.write_text(SEAL_ROWS + last, newline="")
+    with pytest.raises(DatasetError, match=r"seal.txt: line 4 .*without a line break.*cut off"):
+        convert_pneumatic_seal(cut)
+
+
+def test_pneumatic_file_complete_but_without_the_last_line_break_converts(tmp_path: Path) -> None:
+    whole = tmp_path / "seal.txt"
+    whole.write_text(SEAL_ROWS + "30.000\t3.474\t1.499\t3.248\t0.030\t2.997\t151.092",
+                     newline="")
+    assert convert_pneumatic_seal(whole).n_rows == 4
+
+
 def test_pneumatic_repeated_time_names_the_line(tmp_path: Path) -> None:
     bad = tmp_path / "seal.txt"
     bad.write_text("0 1 1 1 0 1 1\n10 1 1 1 0 1 1\n10 1 1 1 0 1 1\n")

@@ -225,6 +225,25 @@ def test_in_memory_dataset_is_validated_with_its_row() -> None:
         Dataset("x", {"time_s": t, "speed": t})
 
 
+def test_samples_closer_than_a_nanosecond_are_refused() -> None:
+    t = np.array([0.0, 1e-3, 1e-3 + 1e-12, 2e-3])
+    with pytest.raises(DatasetError, match=r"data row 3, column 'time_s': 1e-12 s after the "
+                                           r"previous row; samples closer than 1e-09 s"):
+        Dataset("x", {"time_s": t, "position_m": t, "friction_force_N": t})
+    t = np.arange(4) * 1e-9  # 1 GHz: the limit itself is a record
+    Dataset("x", {"time_s": t, "position_m": t, "friction_force_N": t})
+
+
+def test_messages_show_plain_numbers_not_numpy_reprs() -> None:
+    t = np.array([0.0, 0.1, 0.05])
+    with pytest.raises(DatasetError) as exc:
+        Dataset("x", {"time_s": t, "position_m": t, "friction_force_N": t})
+    assert "0.05 is not after the previous row's 0.1" in str(exc.value)
+    with pytest.raises(DatasetError) as exc:
+        DatasetMetadata(mass_kg=np.float64(-1.5))
+    assert "got -1.5" in str(exc.value) and "np." not in str(exc.value)
+
+
 def test_failed_write_leaves_nothing_behind(tmp_path: Path) -> None:
     (tmp_path / "run.json").mkdir()  # the sidecar cannot replace a folder
     with pytest.raises(DatasetError, match="cannot write"):
@@ -237,3 +256,14 @@ def test_write_refuses_a_bad_name_without_writing(tmp_path: Path) -> None:
     with pytest.raises(DatasetError, match="NAME.csv"):
         write_dataset(_dataset(), tmp_path / "run.dat")
     assert not any(tmp_path.iterdir())
+
+
+def test_a_failed_write_keeps_the_previous_files(tmp_path: Path) -> None:
+    write_dataset(_dataset(), tmp_path / "run.csv")
+    before = (tmp_path / "run.csv").read_bytes()
+    (tmp_path / "run.json").unlink()
+    (tmp_path / "run.json").mkdir()  # the sidecar cannot be written
+    with pytest.raises(DatasetError, match=r"run.json: cannot write: it is a folder"):
+        write_dataset(_dataset(50), tmp_path / "run.csv")
+    assert (tmp_path / "run.csv").read_bytes() == before  # not deleted, not changed
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.csv", "run.json"]

@@ -8,7 +8,10 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import os
+import re
 import sys
+import tempfile
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -56,21 +59,17 @@ def parse_overrides(pairs: Sequence[str]) -> dict[str, str]:
 
 
 def write_json(path: Path | None, payload: Any) -> None:
-    """Write JSON atomically (temp file + rename) so a failure leaves nothing half-written."""
+    """Write JSON atomically (temp file + rename) so a failure leaves nothing half-written;
+    inside ``datasets.all_or_nothing()`` together with the block's other outputs."""
+    from .datasets import stage_file
+
     text = json.dumps(payload, indent=2, sort_keys=False)
     if path is None:
         print(text)
         return
     path = Path(path)
     check_output_file(path, "the output")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    try:
-        tmp.write_text(text + "\n")
-        tmp.replace(path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    stage_file(path, (text + "\n").encode())
 
 
 def check_output_file(path: Path | None, option: str) -> None:
@@ -86,6 +85,55 @@ def check_output_file(path: Path | None, option: str) -> None:
             raise UsageError(f"{option} {path}: {parent} is a file, not a folder")
 
 
+def check_writable(path: Path, option: str, *, inside: bool = False) -> None:
+    """UsageError when the folder that will hold ``path`` (the nearest that exists; with
+    ``inside``, ``path`` itself when it is a folder) cannot take a new file: tried with a
+    temporary file, removed at once."""
+    path = Path(path)
+    folder = path if inside and path.is_dir() else Path(os.path.abspath(path)).parent
+    while not folder.exists():
+        folder = folder.parent
+    try:
+        handle, probe = tempfile.mkstemp(dir=folder, prefix=".vibrofriction-probe.",
+                                         suffix=".tmp")
+        os.close(handle)
+        os.unlink(probe)
+    except OSError as exc:
+        raise UsageError(f"{option} {path}: cannot write in {folder} "
+                         f"({exc.strerror or exc}); choose a folder you can write to") from None
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    """Every output target of the command, before it runs: a failing command computes nothing
+    and writes nothing (the writes themselves are all-or-nothing: datasets.all_or_nothing)."""
+    from .datasets import sidecar_path
+
+    files: list[tuple[str, str, Path]] = []  # (label in messages, what it is, file)
+    out = getattr(args, "out", None)
+    if out is not None and args.command != "convert":
+        check_output_folder(out, "--out")
+        check_writable(out, "--out", inside=args.command != "identify")
+        out = None
+    for option, path in (("--csv", getattr(args, "csv_path", None)), ("--out", out)):
+        if path is not None:
+            path = Path(path)
+            check_output_file(path, option)  # (a folder is named as such, not as a bad name)
+            files += [(option, option, path),
+                      (f"{option} {path}: its sidecar", f"the sidecar of {option} {path}",
+                       sidecar_path(path))]
+    if getattr(args, "json_path", None) is not None:
+        files.append(("--json", "--json", Path(args.json_path)))
+    seen: dict[Path, str] = {}
+    for label, what, path in files:
+        check_output_file(path, label)
+        check_writable(path, label)
+        key = Path(os.path.abspath(path))
+        if key in seen:
+            raise UsageError(f"{label} {path} is also written as {seen[key]}; name another "
+                             "file")
+        seen[key] = what
+
+
 def check_output_folder(path: Path | None, option: str) -> None:
     """UsageError when ``path`` cannot become a folder (an existing file is in the way)."""
     if path is None:
@@ -96,8 +144,18 @@ def check_output_folder(path: Path | None, option: str) -> None:
             raise UsageError(f"{option} {path}: {candidate} is a file; name a folder")
 
 
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse, with every number that starts with '-' taken as a value, not an option:
+    argparse alone knows only -1 and -.5, so ``--va -1e-3`` would be "expected one argument"
+    instead of the option's own range check (sub-parsers inherit the class)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = re.compile(r"^-(\.?\d|inf|nan)", re.IGNORECASE)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="vibrofriction",
         description="Dynamic friction (Coulomb, Dahl, Dupont, LuGre) with vibrating supports "
                     "in MuJoCo.")
@@ -123,15 +181,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
-        # output targets first: a failing command computes nothing and writes nothing
-        check_output_file(getattr(args, "json_path", None), "--json")
-        check_output_file(getattr(args, "csv_path", None), "--csv")
-        if getattr(args, "out", None) is not None:
-            (check_output_file if args.command == "convert" else check_output_folder)(
-                args.out, "--out")
+        check_outputs(args)  # a failing command computes nothing and writes nothing
         return int(args._run(args) or 0)
     except (InputError, FileNotFoundError, MujocoVersionMismatch) as exc:
         print(f"vibrofriction {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except MemoryError as exc:  # a run or a record larger than this machine's memory
+        print(f"vibrofriction {args.command}: error: not enough memory ({exc}); ask for less "
+              "(a shorter --duration, a larger --timestep, a shorter record)", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)

@@ -240,9 +240,11 @@ def convert_pneumatic_seal(txt_path: str | os.PathLike) -> Dataset:
     """
     path = _existing_file(txt_path)
     try:
-        lines = path.read_text(encoding="ascii").splitlines()
+        text = path.read_text(encoding="ascii")
     except (OSError, UnicodeDecodeError) as exc:
         raise DatasetError(f"{path}: cannot read: {exc}") from None
+    lines = text.splitlines()
+    _check_not_cut_off(text, lines, path)
     raw, line_numbers = parse_numeric_table(
         lines, source=str(path), first_line=1, delimiter=None, n_cells=len(PNEUMATIC_COLUMNS),
         wanted={name: j for j, name in enumerate(PNEUMATIC_COLUMNS)})
@@ -261,6 +263,28 @@ def convert_pneumatic_seal(txt_path: str | os.PathLike) -> Dataset:
         sample_rate_Hz=round(float(1.0 / np.median(np.diff(time_s))), 6),
         source=f"{PNEUMATIC_SOURCE}; file {path.name}")
     return Dataset(name=path.stem, columns=columns, metadata=metadata, source_path=path)
+
+
+def _check_not_cut_off(text: str, lines: list[str], path: Path) -> None:
+    """Refuse a text table cut off inside its last row (a truncated copy or download). The
+    recorder ends every line with a line break and writes each column with fixed decimals
+    (all three files: 3), so a last line without a line break whose cells differ from the
+    line before in number or in decimals is a cut, not data."""
+    if not text or text.endswith(("\n", "\r")):
+        return
+    rows = [(number, line) for number, line in enumerate(lines, start=1) if line.strip()]
+    if len(rows) < 2:
+        return
+    (last_number, last), (previous_number, previous) = rows[-1], rows[-2]
+
+    def decimals(line: str) -> list[int]:
+        return [len(cell.partition(".")[2]) if "." in cell else -1 for cell in line.split()]
+
+    if decimals(last) != decimals(previous):
+        raise DatasetError(f"{path}: line {last_number} ({last.strip()!r}) ends the file "
+                           "without a line break and its cells differ from line "
+                           f"{previous_number}'s in number or decimals: the file is cut off; "
+                           "use the complete file, or delete its last line")
 
 
 # ---------------------------------------------------------------------------------- shared

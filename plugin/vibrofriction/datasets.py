@@ -8,16 +8,22 @@ friction from Newton's law) come from the :class:`Dataset` properties, computed 
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import gzip
 import json
 import math
 import os
+import secrets
+import shutil
+import signal
 import sys
 import tempfile
+import threading
 from dataclasses import asdict, dataclass, field, fields
 from functools import cached_property
 from pathlib import Path
-from typing import Any, Callable, Mapping, NoReturn, Sequence
+from typing import Any, Callable, Iterator, Mapping, NoReturn, Sequence
 
 import numpy as np
 
@@ -56,6 +62,10 @@ RowLabel = Callable[[int], str]
 
 class DatasetError(InputError):
     """A dataset or source file is malformed; the message names file, column/key and row."""
+
+
+class OutputError(DatasetError):
+    """An output file or folder cannot be written; the message names the user's path."""
 
 
 def data_row_label(index: int) -> str:
@@ -108,7 +118,8 @@ class DatasetMetadata:
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise DatasetError(f"key '{key}' must be a number, got {_show(value)}")
             if not math.isfinite(value) or not ok(value):
-                raise DatasetError(f"key '{key}' must be finite and {rule}, got {value!r}")
+                raise DatasetError(f"key '{key}' must be finite and {rule}, got "
+                                   f"{_plain(value)!r}")
             object.__setattr__(self, key, float(value))
 
     @classmethod
@@ -307,9 +318,27 @@ def check_increasing(time_s: np.ndarray, where: str, row_label: RowLabel,
     bad = np.flatnonzero(np.diff(time_s) <= 0)
     if bad.size:
         index = int(bad[0]) + 1
-        raise DatasetError(f"{where}: {row_label(index)}, column '{name}': {time_s[index]!r} "
-                           f"is not after the previous row's {time_s[index - 1]!r}; "
-                           "time must strictly increase")
+        raise DatasetError(f"{where}: {row_label(index)}, column '{name}': "
+                           f"{float(time_s[index])!r} is not after the previous row's "
+                           f"{float(time_s[index - 1])!r}; time must strictly increase")
+
+
+# The closest two samples may be: a sample rate of 1 GHz, far beyond any friction measurement
+# (and any simulation timestep this package uses); closer samples are a unit or a glitch.
+MIN_SAMPLE_INTERVAL_S = 1e-9
+
+
+def check_sample_interval(time_s: np.ndarray, where: str, row_label: RowLabel,
+                          name: str = "time_s") -> None:
+    """Raise at the first sample closer than MIN_SAMPLE_INTERVAL_S to the previous one."""
+    steps = np.diff(time_s)
+    bad = np.flatnonzero((steps > 0) & (steps < MIN_SAMPLE_INTERVAL_S))
+    if bad.size:
+        index = int(bad[0]) + 1
+        raise DatasetError(f"{where}: {row_label(index)}, column '{name}': "
+                           f"{float(steps[index - 1]):.3g} s after the previous row; samples "
+                           f"closer than {MIN_SAMPLE_INTERVAL_S:g} s (above 1 GHz) are not a "
+                           "friction record: check that the time is in seconds")
 
 
 # The largest magnitude a column may hold: far beyond any friction experiment (a kilometre, a
@@ -350,6 +379,7 @@ def validate_columns(columns: Mapping[str, np.ndarray], where: str,
     check_finite(columns, where, row_label)
     check_ranges(columns, where, row_label)
     check_increasing(columns["time_s"], where, row_label)
+    check_sample_interval(columns["time_s"], where, row_label)
 
 
 # ----------------------------------------------------------------------------------- parsing
@@ -486,8 +516,10 @@ def write_dataset(dataset: Dataset, path: str | os.PathLike) -> tuple[Path, Path
     """Write ``NAME.csv`` (or ``.csv.gz``) and ``NAME.json``; return both paths.
 
     Both files are written to temporary files in the target folder and renamed into place
-    only when both are complete; on any error neither is left behind. Numbers are written with
-    Python's shortest round-trip repr, so reading gives back exactly the same values.
+    only when both are complete; on any error neither is left behind and files already there
+    are kept as they were (inside :func:`all_or_nothing`, together with the block's other
+    outputs). Numbers are written with Python's shortest round-trip repr, so reading gives
+    back exactly the same values.
     """
     path = Path(path)
     json_path = sidecar_path(path)
@@ -495,11 +527,9 @@ def write_dataset(dataset: Dataset, path: str | os.PathLike) -> tuple[Path, Path
     if path.name.endswith(".gz"):
         csv_bytes = gzip.compress(csv_bytes, mtime=0)  # mtime 0: same data, same bytes
     json_bytes = (json.dumps(dataset.metadata.to_json_object(), indent=2) + "\n").encode()
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        _replace_all_or_nothing({path: csv_bytes, json_path: json_bytes})
-    except OSError as exc:
-        raise DatasetError(f"{path}: cannot write: {exc}") from None
+    with all_or_nothing():
+        stage_file(path, csv_bytes)
+        stage_file(json_path, json_bytes)
     return path, json_path
 
 
@@ -510,27 +540,152 @@ def _csv_text(dataset: Dataset) -> str:
     return ",".join(names) + "\n" + body + "\n"
 
 
-def _replace_all_or_nothing(contents: Mapping[Path, bytes]) -> None:
-    """Stage every file as a temp file, then rename; undo everything on any error."""
-    staged: list[tuple[Path, Path]] = []
-    placed: list[Path] = []
+# ------------------------------------------------------------------------ all-or-nothing writes
+
+class _Outputs:
+    """Files and folders staged beside their targets, put in place together by commit()."""
+
+    def __init__(self) -> None:
+        self.staged: list[tuple[Path, Path]] = []  # (temporary, target)
+        self.created: list[Path] = []  # parent folders made for the targets
+
+    def folder_of(self, target: Path) -> Path:
+        missing = [p for p in (target.parent, *target.parent.parents) if not p.exists()]
+        for folder in reversed(missing):
+            folder.mkdir()
+            self.created.append(folder)
+        return target.parent
+
+    def file(self, target: Path, data: bytes) -> None:
+        fd, tmp = tempfile.mkstemp(dir=self.folder_of(target), prefix=f".{target.name}.",
+                                   suffix=".tmp")
+        self.staged.append((Path(tmp), target))
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give a normal file's mode
+
+    def folder(self, target: Path, write: Callable[[Path], None]) -> None:
+        tmp = Path(tempfile.mkdtemp(dir=self.folder_of(target), prefix=f".{target.name}.",
+                                    suffix=".tmp"))
+        self.staged.append((tmp, target))
+        os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700; give a normal folder's mode
+        write(tmp)
+
+    def commit(self) -> None:
+        """Every target checked first; then each old one renamed aside and the new one renamed
+        in; on any error every target is restored; the old ones are deleted at the end."""
+        for tmp, target in self.staged:
+            if target.exists() and target.is_dir() != tmp.is_dir():
+                kind = "a folder" if target.is_dir() else "a file"
+                raise OutputError(f"{target}: cannot write: it is {kind}; name another "
+                                  "path or remove it")
+        swapped: list[tuple[Path, Path, Path | None]] = []  # (temporary, target, old one)
+        try:
+            for tmp, target in self.staged:
+                aside = None
+                if os.path.lexists(target):
+                    aside = target.with_name(f".{target.name}.{secrets.token_hex(4)}.old")
+                swapped.append((tmp, target, aside))
+                if aside is not None:
+                    _on(target, os.rename, target, aside)
+                _on(target, os.rename, tmp, target)
+        except BaseException:
+            for tmp, target, aside in reversed(swapped):
+                if not os.path.lexists(tmp):  # placed: take the new one out again
+                    _remove(target)
+                if aside is not None and os.path.lexists(aside):
+                    os.rename(aside, target)
+            raise
+        for _, _, aside in swapped:
+            if aside is not None:
+                _remove(aside)
+
+    def discard(self) -> None:
+        for tmp, _ in self.staged:
+            _remove(tmp)
+        for folder in reversed(self.created):
+            with contextlib.suppress(OSError):
+                folder.rmdir()
+
+
+_OUTPUTS: contextvars.ContextVar[_Outputs | None] = contextvars.ContextVar(
+    "vibrofriction_outputs", default=None)
+
+
+@contextlib.contextmanager
+def all_or_nothing() -> Iterator[None]:
+    """Outputs written in the block (write_dataset, cli.write_json, report.write_folder) are
+    staged beside their targets and put in place together when the block ends: all of them,
+    or on any error none, with every file and folder that was there kept as it was. An
+    existing folder target is replaced as a whole. SIGTERM meanwhile raises SystemExit, so
+    the staged files are removed before the process ends. Nested blocks join the outer one.
+    """
+    if _OUTPUTS.get() is not None:
+        yield
+        return
+    outputs = _Outputs()
+    token = _OUTPUTS.set(outputs)
     try:
-        for target, data in contents.items():
-            fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.",
-                                       suffix=".tmp")
-            staged.append((Path(tmp), target))
-            with os.fdopen(fd, "wb") as handle:
-                handle.write(data)
-            os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give a normal file's mode
-        for tmp, target in staged:
-            os.replace(tmp, target)
-            placed.append(target)
-    except BaseException:
-        for tmp, _ in staged:
-            tmp.unlink(missing_ok=True)
-        for target in placed:  # never leave a CSV without its sidecar (or vice versa)
-            target.unlink(missing_ok=True)
-        raise
+        with _sigterm_raises():
+            try:
+                yield
+                outputs.commit()
+            except BaseException:
+                outputs.discard()
+                raise
+    finally:
+        _OUTPUTS.reset(token)
+
+
+def stage_file(target: str | os.PathLike, data: bytes) -> None:
+    """Write ``data`` to ``target`` (inside :func:`all_or_nothing`: when the block ends)."""
+    target = Path(target)
+    with all_or_nothing():
+        _on(target, _OUTPUTS.get().file, target, data)
+
+
+def stage_folder(target: str | os.PathLike, write: Callable[[Path], None]) -> Path:
+    """Run ``write(tmp)`` on a new folder beside ``target``, which then replaces ``target`` as
+    a whole (inside :func:`all_or_nothing`: when the block ends)."""
+    target = Path(os.path.abspath(target))
+    with all_or_nothing():
+        _on(target, _OUTPUTS.get().folder, target, write)
+    return target
+
+
+def _on(target: Path, action: Callable[..., Any], *args: Any) -> Any:
+    """``action(*args)``; an OSError becomes an OutputError naming ``target``."""
+    try:
+        return action(*args)
+    except OSError as exc:
+        raise OutputError(f"{target}: cannot write: {exc.strerror or exc}") from None
+
+
+def _remove(path: Path) -> None:
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path, ignore_errors=True)
+    else:
+        with contextlib.suppress(OSError):
+            path.unlink()
+
+
+@contextlib.contextmanager
+def _sigterm_raises() -> Iterator[None]:
+    """SIGTERM raises SystemExit(143) (once) so the cleanup of a write runs; restored after."""
+    if (threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGTERM) == signal.SIG_IGN):
+        yield  # (handlers belong to the main thread; an ignored SIGTERM stays ignored)
+        return
+
+    def terminate(signum: int, frame: Any) -> None:
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # the cleanup runs undisturbed
+        raise SystemExit(128 + signum)
+
+    previous = signal.signal(signal.SIGTERM, terminate)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous if previous is not None else signal.SIG_DFL)
 
 
 # ----------------------------------------------------------------------------------- helpers
@@ -565,7 +720,12 @@ def _quoted(names: Sequence[str]) -> str:
 
 
 def _show(value: Any) -> str:
-    return f"{value!r} ({type(value).__name__})"
+    return f"{_plain(value)!r} ({type(_plain(value)).__name__})"
+
+
+def _plain(value: Any) -> Any:
+    """A numpy scalar as the Python number it holds (its repr is then a plain number)."""
+    return value.item() if isinstance(value, np.generic) else value
 
 
 __all__ = [
@@ -574,13 +734,19 @@ __all__ = [
     "Dataset",
     "DatasetError",
     "DatasetMetadata",
+    "MIN_SAMPLE_INTERVAL_S",
+    "OutputError",
+    "all_or_nothing",
     "check_finite",
     "check_increasing",
+    "check_sample_interval",
     "cumulative_trapezoid",
     "parse_numeric_table",
     "read_dataset",
     "sidecar_path",
     "smoothed_derivative",
+    "stage_file",
+    "stage_folder",
     "validate_columns",
     "write_dataset",
 ]

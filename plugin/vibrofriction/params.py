@@ -70,7 +70,7 @@ def _check_limits(params: Any) -> None:
                 abs(value) > largest or 0 < abs(value) < smallest):
             rule = f"must lie within +-{largest:g}" + (
                 f" and be 0 or at least {smallest:g} in magnitude" if smallest else "")
-            raise ParameterError(f"parameter {name}={value!r} {rule} (SI units)")
+            raise ParameterError(f"parameter {name}={_plain(value)!r} {rule} (SI units)")
 
 
 class ParameterError(InputError):
@@ -184,7 +184,13 @@ def lugre_default_bristle_damping(contact_stiffness_N_per_m: float, mass_kg: flo
 
 def _require(ok: bool, name: str, value: Any, rule: str) -> None:
     if not ok or (isinstance(value, float) and math.isnan(value)):
-        raise ParameterError(f"parameter {name}={value!r} {rule}")
+        raise ParameterError(f"parameter {name}={_plain(value)!r} {rule}")
+
+
+def _plain(value: Any) -> Any:
+    """A numpy scalar as the Python number it holds: messages show 0.5, not np.float64(0.5)."""
+    numpy_scalar = type(value).__module__ == "numpy" and getattr(value, "ndim", None) == 0
+    return value.item() if numpy_scalar else value
 
 
 def _all_field_names() -> dict[str, type]:

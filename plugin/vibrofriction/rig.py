@@ -17,7 +17,7 @@ import numpy as np
 from mujoco import rollout as mj_rollout
 
 from ._native import load
-from .params import FrictionParameters, ParameterError, RigParameters
+from .params import FrictionParameters, ParameterError, RigParameters, _plain
 from .summary import RunSummary, summarize
 
 MJCF_DIR = Path(__file__).resolve().parent / "mjcf_models"
@@ -82,7 +82,8 @@ def build_spec(rig: RigParameters, friction: FrictionParameters,
     rig.validate()
     friction.validate()
     if not (timestep_s > 0 and math.isfinite(timestep_s)):
-        raise ParameterError(f"timestep {timestep_s!r} must be a positive number of seconds")
+        raise ParameterError(f"timestep {_plain(timestep_s)!r} must be a positive number of "
+                             "seconds")
     spec = mujoco.MjSpec.from_file(str(scene_path(friction.law)))
     spec.option.timestep = timestep_s
     spec.body("slider").mass = rig.mass_kg
@@ -275,7 +276,8 @@ def simulate_many(cases: Sequence[tuple[RigParameters, FrictionParameters]], *,
     duration = duration_s if duration_s is not None else max(t[0] for t in times)
     settle = settle_time_s if settle_time_s is not None else max(t[1] for t in times)
     if not (duration > 0 and math.isfinite(duration)):
-        raise ParameterError(f"duration {duration!r} must be a positive number of seconds")
+        raise ParameterError(f"duration {_plain(duration)!r} must be a positive number of "
+                             "seconds")
     nstep = int(round(duration / timestep_s))
     models = [build_model(r, f, timestep_s) for r, f in cases]
     nthread = nthread if nthread is not None else min(len(cases), _cpu_count())

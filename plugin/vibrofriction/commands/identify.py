@@ -9,12 +9,13 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import os
 import sys
 import time
 from pathlib import Path
 
-from ..cli import UsageError, parse_overrides, write_json
-from ..datasets import Dataset, read_dataset
+from ..cli import UsageError, check_output_folder, check_writable, parse_overrides, write_json
+from ..datasets import Dataset, all_or_nothing, read_dataset
 from ..identify import EFFECTS, MIN_IMPROVEMENT, identify
 from ..identify.report import report_json, rig_replay, write_report
 from ..params import LAWS
@@ -39,7 +40,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="friction law (default lugre: the law with every effect of the "
                              "vocabulary, Stribeck included)")
     parser.add_argument("--out", type=Path, default=None, metavar="DIR",
-                        help="output folder (default: identify_<NAME> in the current folder)")
+                        help="output folder (default: identify_<NAME> in the current folder); "
+                             "an existing DIR must be empty or an earlier report (it holds "
+                             "report.json) and is replaced as a whole: files in it that this "
+                             "run does not write are deleted")
     parser.add_argument("--with", dest="declared", default="", metavar="EFFECT,...",
                         help="effects known in advance, fitted in the baseline (e.g. "
                              "viscous,force_offset for the EMPS benchmark's IDIM-LS model)")
@@ -81,7 +85,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "simulation path chooses its own (see --substeps)")
     parser.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     parser.add_argument("--json", dest="json_path", type=Path, default=None, metavar="FILE",
-                        help="also write report.json to FILE")
+                        help="also write report.json to FILE (outside DIR); DIR and FILE are "
+                             "written together or, on any error, neither")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -105,6 +110,7 @@ def run(args: argparse.Namespace) -> int:
     train = _with_metadata(read_dataset(args.data), overrides)
     held = [_with_metadata(read_dataset(path), overrides) for path in args.validate]
     out = args.out or Path(f"identify_{train.name}")
+    _check_out(out, args)
 
     def progress(message: str) -> None:
         print(f"[{time.monotonic() - started:6.1f} s] {message}", file=sys.stderr, flush=True)
@@ -122,13 +128,33 @@ def run(args: argparse.Namespace) -> int:
         replay = rig_replay(result, train.metadata, timestep_s=args.timestep)
     if not args.no_figures:
         progress("writing report and figures")
-    write_report(result, out, figures=not args.no_figures, rig_replay_result=replay)
-    if args.json_path is not None:
-        write_json(args.json_path, report_json(result))
+    with all_or_nothing():  # DIR and --json FILE: both or neither
+        write_report(result, out, figures=not args.no_figures, rig_replay_result=replay)
+        if args.json_path is not None:
+            write_json(args.json_path, report_json(result))
     b, f = result.baseline.train, result.final.train
     print(f"{train.name}: baseline relerr {b.relerr_pct:.3g} % -> final {f.relerr_pct:.3g} % "
           f"(selected: {', '.join(result.selected) or 'nothing'}); report in {out}")
     return 0
+
+
+def _check_out(out: Path, args: argparse.Namespace) -> None:
+    """DIR replaces what is there as a whole: refuse a folder that is not an earlier report, one
+    that holds the current folder or an input record, and a --json FILE inside it."""
+    check_output_folder(out, "--out")
+    check_writable(out, "--out")
+    folder = Path(os.path.abspath(out))
+    inside = [Path(os.path.abspath(p)) for p in (Path.cwd(), args.data, *args.validate,
+                                                 *([args.json_path] if args.json_path else []))]
+    for path, what in zip(inside, ["the current folder", "DATA", *["--validate DATA"] *
+                                   len(args.validate), "--json FILE"]):
+        if path == folder or folder in path.parents:
+            raise UsageError(f"--out {out} holds {what} ({path}) and would be replaced as a "
+                             "whole; name another folder")
+    if folder.is_dir() and any(folder.iterdir()) and not (folder / "report.json").is_file():
+        raise UsageError(f"--out {out} is a folder that is not an earlier report (no "
+                         "report.json) and would be replaced as a whole; name a new folder "
+                         "or empty it")
 
 
 def _method(requested: str, train: Dataset) -> tuple[str, str]:
@@ -164,9 +190,10 @@ def _run_simulation(args, train, held, out, declared, reason, progress) -> int:
     if not args.no_figures:
         progress("writing report and figures")
     payload = simulation_report.report_json(result)
-    simulation_report.write_report(result, out, figures=not args.no_figures)
-    if args.json_path is not None:
-        write_json(args.json_path, payload)
+    with all_or_nothing():  # DIR and --json FILE: both or neither
+        simulation_report.write_report(result, out, figures=not args.no_figures)
+        if args.json_path is not None:
+            write_json(args.json_path, payload)
     b, f = result.baseline.train, result.final.train
     print(f"{train.name}: identified by simulation ({reason}); {result.primary} relerr "
           f"baseline {b.relerr_pct:.3g} % -> final {f.relerr_pct:.3g} % (selected: "

@@ -16,8 +16,11 @@ from typing import Any
 
 from .. import rig as rig_module
 from ..cli import UsageError, add_common_arguments, parse_overrides, write_json
-from ..datasets import Dataset, DatasetMetadata, sidecar_path, write_dataset
+from ..datasets import (MIN_SAMPLE_INTERVAL_S, Dataset, DatasetMetadata, all_or_nothing,
+                        sidecar_path, write_dataset)
 from ..params import FrictionParameters, RigParameters, apply_overrides, as_dict, default_friction
+
+MAX_STEPS = 5e8  # steps of one run: hours of wall time and gigabytes of recorded series
 
 HELP = ("run the vibrating-support rig once: time series to CSV (dataset format), summary "
         "(mean drive force, friction extrema, sign change) to JSON")
@@ -83,19 +86,71 @@ def run_settings(args: argparse.Namespace, cases: list[tuple[RigParameters, Fric
         if settle >= duration:  # a short --duration: average over its second half
             settle = 0.5 * duration
     if settle >= duration:
-        raise UsageError(f"--settle {settle} s must be before the end of the run "
-                         f"(--duration {duration} s)")
+        raise UsageError(f"--settle {_g(settle)} s must be before the end of the run "
+                         f"(--duration {_g(duration)} s)")
     periods = [1.0 / r.vibration_frequency_Hz for r, _ in cases
                if r.vibration_frequency_Hz > 0 and r.vibration_velocity_amplitude_m_per_s > 0]
     if periods and duration - settle < max(periods) - 1e-12:
-        raise UsageError(f"the averaging window {duration - settle} s (--duration minus "
-                         f"--settle) is shorter than one vibration period {max(periods)} s")
-    if duration / timestep > 5e8:
-        raise UsageError(f"--duration {duration} s at --timestep {timestep} s is more than "
-                         "5e8 steps; use a larger timestep or a shorter run")
+        raise UsageError(f"the averaging window {_g(duration - settle)} s (--duration minus "
+                         f"--settle) is shorter than one vibration period {_g(max(periods))} s")
+    if duration / timestep > MAX_STEPS:
+        raise UsageError(_too_many_steps(args, cases, duration, timestep))
     if timestep > duration:
-        raise UsageError(f"--timestep {timestep} s is longer than --duration {duration} s")
+        raise UsageError(f"--timestep {_g(timestep)} s is longer than --duration "
+                         f"{_g(duration)} s")
     return timestep, duration, settle
+
+
+def _too_many_steps(args: argparse.Namespace,
+                    cases: list[tuple[RigParameters, FrictionParameters]], duration: float,
+                    timestep: float) -> str:
+    """The message for a run of more than MAX_STEPS steps: the user's options, or for a
+    default the parameter values that made it that long or that fine, and what to change."""
+    fixes = []
+    if args.duration is not None:
+        long_text = f"--duration {_g(duration)} s"
+        fixes.append("a shorter --duration")
+    else:  # the longest default: two loadings of the drive spring to breakaway + 70 ms
+        rig, friction = max(cases, key=lambda c: rig_module.default_times(*c)[0])
+        long_text = f"the default duration {_g(duration)} s"
+        fixes.append("--duration S")
+        if duration > 1.0:  # not the usual tenth of a second: say what made it long
+            long_text += (
+                " (two loadings of the drive spring to breakaway, 2 friction_coefficient "
+                "normal_force_N static_ratio / (drive_stiffness_N_per_m "
+                f"drive_velocity_m_per_s) = 2*{_g(friction.friction_coefficient)}*"
+                f"{_g(rig.normal_force_N)}*{_g(friction.static_ratio)}/"
+                f"({_g(rig.drive_stiffness_N_per_m)}*{_g(abs(rig.drive_velocity_m_per_s))}), "
+                "plus 70 ms)")
+            fixes.append("--set a smaller normal_force_N or a larger drive_velocity_m_per_s "
+                         "or drive_stiffness_N_per_m")
+    if args.timestep is not None:
+        step_text = f"--timestep {_g(timestep)} s"
+        fixes.append("a larger --timestep")
+    else:  # the finest default: N + 0.382 steps per vibration period
+        rig, _ = min(cases, key=lambda c: rig_module.recommended_timestep(c[0]))
+        step_text = f"the default timestep {_g(timestep)} s"
+        fixes.append("--timestep S")
+        n = rig_module.steps_per_period(rig.kappa)
+        if timestep < rig_module.DEFAULT_TIMESTEP_S and n > rig_module.BASE_STEPS_PER_PERIOD:
+            step_text += (
+                f" ({n} steps per period of vibration_frequency_Hz="
+                f"{_g(rig.vibration_frequency_Hz)}: {rig_module.BASE_STEPS_PER_PERIOD}, "
+                "doubled per doubling above 10 of kappa_v = "
+                "vibration_velocity_amplitude_m_per_s / drive_velocity_m_per_s = "
+                f"{_g(rig.vibration_velocity_amplitude_m_per_s)}/"
+                f"{_g(abs(rig.drive_velocity_m_per_s))})")
+            fixes.append("a smaller vibration amplitude (--va or "
+                         "vibration_velocity_amplitude_m_per_s) or a larger "
+                         "drive_velocity_m_per_s")
+    return (f"{long_text} at {step_text} is {duration / timestep:.3g} steps, more than "
+            f"{MAX_STEPS:.0e}; give " + ", or ".join(fixes))
+
+
+def _g(value: float) -> str:
+    """A number for a message: 6 significant digits, no float noise (800000.07, not
+    800000.0700000001)."""
+    return f"{float(value):.6g}"
 
 
 def summary_fields(run: rig_module.RigRun, settle_time_s: float,
@@ -125,8 +180,8 @@ def dataset_of(run: rig_module.RigRun, name: str) -> Dataset:
     rig = run.rig
     metadata = DatasetMetadata(
         description=(f"vibrofriction simulate: law {run.friction.law}, v_a = "
-                     f"{rig.vibration_velocity_amplitude_m_per_s!r} m/s, dt = "
-                     f"{run.timestep_s!r} s"),
+                     f"{float(rig.vibration_velocity_amplitude_m_per_s)!r} m/s, dt = "
+                     f"{float(run.timestep_s)!r} s"),
         mass_kg=rig.mass_kg,
         drive_stiffness_N_per_m=rig.drive_stiffness_N_per_m,
         drive_velocity_m_per_s=rig.drive_velocity_m_per_s,
@@ -151,6 +206,10 @@ def run(args: argparse.Namespace) -> int:
     if args.static:
         cases.append((replace(rig, vibration_velocity_amplitude_m_per_s=0.0), friction))
     timestep, duration, settle = run_settings(args, cases)
+    if args.csv_path is not None and timestep < MIN_SAMPLE_INTERVAL_S:
+        raise UsageError(f"--csv {args.csv_path}: a record sampled every {_g(timestep)} s "
+                         f"(the timestep) is finer than the {MIN_SAMPLE_INTERVAL_S:g} s a "
+                         "dataset accepts; use a larger --timestep or leave out --csv")
     runs = rig_module.simulate_many(cases, duration_s=duration, timestep_s=timestep,
                                     settle_time_s=settle)
     static = runs[1].summary(settle).mean_drive_force_N if args.static else None
@@ -164,10 +223,14 @@ def run(args: argparse.Namespace) -> int:
         **summary_fields(runs[0], settle, static),
         "csv": None if args.csv_path is None else str(args.csv_path),
     }
-    if args.csv_path is not None:
-        name = sidecar_path(args.csv_path).stem
-        write_dataset(dataset_of(runs[0], name), args.csv_path)
-    write_json(args.json_path, payload)
+    with all_or_nothing():  # the CSV, its sidecar and the JSON: all of them or none
+        if args.csv_path is not None:
+            name = sidecar_path(args.csv_path).stem
+            write_dataset(dataset_of(runs[0], name), args.csv_path)
+        if args.json_path is not None:
+            write_json(args.json_path, payload)
+    if args.json_path is None:
+        write_json(None, payload)
     return 0
 
 

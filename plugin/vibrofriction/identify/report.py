@@ -5,13 +5,12 @@ import dataclasses
 import json
 import math
 import os
-import shutil
-import tempfile
 from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 
+from ..datasets import stage_folder
 from ..params import RigParameters
 from .fit import FitResult
 from .model import EFFECT_FIELDS, EFFECTS
@@ -297,31 +296,12 @@ def write_report(result: Identification, out_dir: str | os.PathLike, *,
 
 
 def write_folder(out_dir: str | os.PathLike, write: Callable[[Path], None]) -> Path:
-    """Run ``write(tmp)`` on a temporary folder next to ``out_dir``, then move its files in
-    place: a failure leaves ``out_dir`` as it was."""
-    out_dir = Path(out_dir)
-    parent = out_dir.resolve().parent
-    parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", suffix=".tmp", dir=parent))
-    try:
-        os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700; give a normal folder's mode
-        write(tmp)
-        if not out_dir.exists():
-            os.rename(tmp, out_dir)
-        else:
-            for path in sorted(tmp.iterdir()):
-                os.replace(path, out_dir / path.name)
-            tmp.rmdir()
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    return out_dir
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
+    """Run ``write(tmp)`` on a new folder beside ``out_dir``, then swap it in: an existing
+    ``out_dir`` is replaced as a whole (renamed aside, the new one renamed in, the old one
+    deleted; restored on any failure), so no stale file of an earlier report stays. Inside
+    ``datasets.all_or_nothing()`` the swap happens with the block's other outputs."""
+    stage_folder(out_dir, write)
+    return Path(out_dir)
 
 
 __all__ = ["report_json", "report_markdown", "write_report", "write_folder", "parameters", "rig_replay",
