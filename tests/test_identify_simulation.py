@@ -143,6 +143,7 @@ def test_cli_identify_by_simulation_writes_the_report(tmp_path, capsys) -> None:
     assert report["final"]["parameters"]["friction_coefficient"] == pytest.approx(0.21,
                                                                                   rel=0.01)
     assert "--set friction_coefficient=" in report["set"]
+    assert report["initial_state"] == {"velocity_m_per_s": 0.0, "velocity_from": "measured"}
     assert (out / "fit.png").stat().st_size > 1000
     assert "identified by simulation" in capsys.readouterr().out
 

@@ -74,10 +74,28 @@ def report_json(result: SimIdentification) -> dict[str, Any]:
         "settings": {**result.settings, "simulations": result.simulations,
                      "seconds": round(result.seconds, 3)},
         "set": set_line(result),
+        "initial_state": initial_state(result),
         **({"closed_loop": {"model": result.train.scene.name,
                             "first_sample": 50, **result.closed_loop}}
            if result.closed_loop is not None else {}),
     }
+
+
+def initial_state(result: SimIdentification) -> dict[str, Any]:
+    """The replayed body's velocity at the first sample: measured, estimated by smoothing, or
+    fitted with the parameters (a nuisance of the training record, not part of the scene)."""
+    replay = result.train
+    if "initial_velocity_m_per_s" in result.final.values:
+        return {"velocity_m_per_s": _finite(result.final.values["initial_velocity_m_per_s"]),
+                "velocity_from": "fitted"}
+    source = "measured" if "velocity_m_per_s" in replay.measured else "smoothing estimate"
+    return {"velocity_m_per_s": _finite(replay.initial_velocity_m_per_s),
+            "velocity_from": source}
+
+
+def _initial_velocity_text(result: SimIdentification) -> str:
+    state = initial_state(result)
+    return f"{state['velocity_m_per_s']:.4g} m/s ({state['velocity_from']})"
 
 
 # The benchmark's own closed-loop figures (EMPS description, section 3.5: IDIM-LS estimates
@@ -153,6 +171,7 @@ def report_markdown(result: SimIdentification) -> str:
                                    "friction level in N"),
              "- mass: " + ("identified" if r.settings.get("fit_mass") else
                            f"{replay.rig.mass_kg:g} kg (sidecar)"),
+             "- initial velocity: " + _initial_velocity_text(r),
              "", "## Error before and after", "",
              "| model | " + " | ".join(f"{c} relerr" for c in replay.channels) +
              "".join(f" | held-out `{v.name}`" for v in r.validation) + " |",
