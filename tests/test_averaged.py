@@ -135,3 +135,99 @@ def test_a_table_number_that_is_not_a_plain_decimal_is_named(dahl_table, bad):
     spec = planar.build_rig_spec(_rig(0.5), PART, timestep_s=1e-3, averaged_config=config)
     with pytest.raises(ValueError, match="table_along' has a non-number at position 0"):
         spec.compile()
+
+
+def _synthetic_table_config(scale_middle: float = 1.0) -> dict[str, str]:
+    """An averaged config with fixed-width numbers: scaling the middle of the table keeps the
+    config's length and its first and last bytes."""
+    xi = np.array([0.0, 0.25, 0.5, 1.0, 2.0, 4.0])
+    angle = np.array([0.0, math.pi / 2, math.pi])
+    level = xi / (xi + 0.3)  # along the velocity, rising to 1 past xi ~ 1
+    along = np.outer(level, np.cos(angle))
+    across = np.outer(level, np.sin(angle))
+    middle = slice(6, along.size - 6)
+    along.ravel()[middle] *= scale_middle
+    across.ravel()[middle] *= scale_middle
+    fixed = lambda values: " ".join(f"{v:.6f}" for v in values.ravel())  # noqa: E731
+    return {"mu": "0.3", "normal": repr(NORMAL_N), "velocity_amplitude": "0.05",
+            "table_xi": fixed(xi), "table_angle": repr(0.0) + " " + repr(math.pi / 2) + " "
+            + repr(math.pi), "table_along": fixed(along), "table_across": fixed(across)}
+
+
+def _spec_with(config: dict[str, str]) -> mujoco.MjSpec:
+    return planar.build_rig_spec(_rig(0.4), PART, timestep_s=1e-3, averaged_config=config)
+
+
+def _config_bytes(model: mujoco.MjModel) -> np.ndarray:
+    """The averaged element's config as the plugin sees it (a view into the model)."""
+    instance = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_PLUGIN, "friction")
+    end = model.plugin_attradr[instance + 1] if instance + 1 < model.nplugin else None
+    return model.plugin_attr[model.plugin_attradr[instance]:end]
+
+
+def _forces(model: mujoco.MjModel, data: mujoco.MjData, steps: int = 50) -> np.ndarray:
+    rows = []
+    for _ in range(steps):
+        mujoco.mj_step(model, data)
+        rows.append(data.actuator_force.copy())
+    return np.array(rows)
+
+
+FULL = mujoco.mjtState.mjSTATE_FULLPHYSICS
+
+
+def _state(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+    state = np.empty(mujoco.mj_stateSize(model, FULL))
+    mujoco.mj_getState(model, data, state, FULL)
+    return state
+
+
+def _run_from(model: mujoco.MjModel, state: np.ndarray) -> np.ndarray:
+    data = mujoco.MjData(model)
+    mujoco.mj_setState(model, data, state, FULL)
+    return _forces(model, data)
+
+
+def test_two_tables_differ_only_in_the_middle_at_the_same_length():
+    bytes_a = bytes(_config_bytes(_spec_with(_synthetic_table_config()).compile()))
+    bytes_b = bytes(_config_bytes(_spec_with(_synthetic_table_config(0.5)).compile()))
+    assert len(bytes_a) == len(bytes_b) and bytes_a != bytes_b
+    assert bytes_a[:40] == bytes_b[:40] and bytes_a[-40:] == bytes_b[-40:]
+
+
+def test_a_model_compiled_where_a_freed_one_lived_runs_its_own_table():
+    """One MjData stepped with model A, A freed, B compiled (sometimes at A's address)
+    differing only in the middle of its table at the same config length: B's table drives the
+    run (the config cache compares the whole config, not the pointer or the edges)."""
+    config_a, config_b = _synthetic_table_config(), _synthetic_table_config(0.5)
+    base = _spec_with(config_a).compile()  # the MjData's own model (MjData keeps it alive)
+    rounds, reused = 5, 0
+    for _ in range(rounds):
+        data = mujoco.MjData(base)
+        model_a = _spec_with(config_a).compile()
+        _forces(model_a, data, 100)  # sliding: the table's middle is in use; A's config cached
+        state = _state(base, data)
+        address_a, spec_b = model_a._address, _spec_with(config_b)
+        del model_a  # freed: B may be allocated at its address
+        model_b = spec_b.compile()
+        reused += model_b._address == address_a
+        expected = _run_from(model_b, state)
+        assert np.array_equal(_forces(model_b, data), expected)
+        assert not np.array_equal(_run_from(base, state), expected)  # the tables matter here
+    print(f"model B at freed model A's address in {reused} of {rounds} rounds")
+
+
+def test_a_table_changed_in_place_at_the_same_address_is_read_again():
+    """The same-address case made certain: A's config bytes are overwritten with B's (same
+    length, same edges) in the model the MjData was just stepped with. A cache keyed on the
+    model pointer, or on a spot check of the edges, would keep running A's table."""
+    model = _spec_with(_synthetic_table_config()).compile()
+    data = mujoco.MjData(model)
+    _forces(model, data, 100)
+    state = _state(model, data)
+    with_a = _run_from(model, state)
+    model_b = _spec_with(_synthetic_table_config(0.5)).compile()
+    _config_bytes(model)[:] = _config_bytes(model_b)
+    expected = _run_from(model_b, state)
+    assert not np.array_equal(with_a, expected)
+    assert np.array_equal(_forces(model, data), expected)

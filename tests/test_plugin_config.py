@@ -1,6 +1,7 @@
 """Strict config validation: every invalid attribute of vibrofriction.friction and
-vibrofriction.motion makes model compilation fail with a message that names the attribute (and
-says what to write); the MuJoCo version check names both versions."""
+vibrofriction.motion makes model compilation fail with one message that names the element and
+the attribute (and says what to write); each numeric attribute has the physical range of its
+Python name (params.LIMITS); the MuJoCo version check names both versions."""
 from __future__ import annotations
 
 import re
@@ -11,7 +12,7 @@ import pytest
 
 import vibrofriction
 from vibrofriction import rig as rig_module
-from vibrofriction.params import RigParameters, default_friction
+from vibrofriction.params import LIMITS, RigParameters, default_friction
 
 KEEP = object()
 
@@ -75,8 +76,13 @@ FRICTION_CASES = [
     ({"sensor_lag": "-1e-3"}, "sensor_lag", ">= 0"),
     ({"alpha": "0x10"}, "alpha", "decimal notation"),  # strtod would read 16
     ({"sigma1": "1e-400"}, "sigma1", "too small to represent"),  # would read 0
-    ({"viscous": "1e300"}, "viscous", "past any physical value"),
-    ({"mu": "-1e300"}, "mu", "past any physical value"),
+    ({"viscous": "1e300"}, "viscous", "within +-1e+15"),
+    ({"mu": "-1e300"}, "mu", "within +-1e+09"),
+    ({"stiffness": "1e300"}, "stiffness", "within +-1e+18"),
+    ({"force_offset": "1e18"}, "force_offset", "within +-1e+09"),
+    ({"stribeck_velocity": "1e-16"}, "stribeck_velocity", "at least 1e-15"),
+    ({"normal_component": "1e300"}, "normal_component", "past any physical value"),
+    ({"normal_sensor": "drive_force", "normal_gain": "1e12"}, "normal_gain", "within +-1e+09"),
     ({"normal_sensor": "no_such_sensor"}, "normal_sensor", "names no sensor"),
     ({"normal_sensor": "drive_force", "normal_component": "1"}, "normal_component",
      "dimension"),
@@ -104,6 +110,8 @@ STRUCTURE_CASES = [
     ("spatial tendon", "is not a fixed tendon"),
     ("site", "must be a slide or hinge joint or a fixed tendon"),
     ("actdim 2", 'actdim="2"'),
+    ("actdim 3", 'actdim="3"'),
+    ("free", "is a ball or free joint"),
     ("gear 0", "gear is 0"),
     ("motion after friction", "computed after this friction element"),
 ]
@@ -111,10 +119,10 @@ STRUCTURE_CASES = [
 
 def _structural_misuse(case: str, separate_tree: bool = False) -> mujoco.MjSpec:
     """A tiny scene with the element misused as ``case`` says."""
-    joint = "ball" if case == "ball" else "slide"
+    joint = case if case in ("ball", "free") else "slide"
     transmission = {"spatial tendon": 'tendon="spatial"', "site": 'site="s"'}.get(
         case, 'joint="j"')
-    actdim = 2 if case == "actdim 2" else 1
+    actdim = int(case[-1]) if case.startswith("actdim") else 1
     gear = "0" if case == "gear 0" else "1"
     motion = ('<plugin plugin="vibrofriction.motion"><instance name="shake"/></plugin>',
               '<plugin name="shake" joint="j2" instance="shake"/>')
@@ -132,7 +140,7 @@ def _structural_misuse(case: str, separate_tree: bool = False) -> mujoco.MjSpec:
     {second}
   </extension>
   <worldbody>
-    <body name="b"><joint name="j" type="{joint}"{' axis="1 0 0"' * (joint != "ball")}/>
+    <body name="b"><joint name="j" type="{joint}"{' axis="1 0 0"' * (joint == "slide")}/>
       <geom size="0.1" mass="1"/>
       <site name="s"/><site name="s2" pos="0.1 0 0"/>
       {'' if separate_tree else driven}</body>
@@ -186,6 +194,11 @@ MOTION_CASES = [
     ("table_shaker", {"phase": "inf"}, "phase", "finite number"),
     ("table_shaker", {"use_ctrl": "yes"}, "use_ctrl", '"true" or "false"'),
     ("drive_end_motion", {"velocity": "1e7x"}, "velocity", "plain number"),
+    # values that would make the run NaN are outside the physical ranges
+    ("drive_end_motion", {"velocity": "1e300"}, "velocity", "within +-1000"),
+    ("drive_end_motion", {"velocity": "1e18"}, "velocity", "within +-1000"),
+    ("table_shaker", {"velocity_amplitude": "1e18"}, "velocity_amplitude", "within +-1000"),
+    ("table_shaker", {"frequency": "1e8"}, "frequency", "within +-1e+07"),
 ]
 
 
@@ -198,6 +211,63 @@ def test_invalid_motion_attribute_is_named(instance, changes, attribute, fix):
     assert "vibrofriction.motion" in message
     assert attribute in message
     assert fix in message
+
+
+# The plugin attribute of each params.LIMITS name (instance in the rig scene, MJCF key). The
+# averaged element reads mu, normal, viscous, static_ratio and velocity_amplitude with the same
+# keys and so the same ranges.
+PLUGIN_ATTRIBUTES = {name: ("friction", key) for name, key in rig_module.MJCF_KEYS.items()}
+PLUGIN_ATTRIBUTES.update({
+    "normal_force_N": ("friction", "normal"),
+    "vibration_frequency_Hz": ("table_shaker", "frequency"),
+    "vibration_velocity_amplitude_m_per_s": ("table_shaker", "velocity_amplitude"),
+    "drive_velocity_m_per_s": ("drive_end_motion", "velocity"),
+})
+LIMITED = sorted(name for name in PLUGIN_ATTRIBUTES if name in LIMITS)
+
+
+def test_every_python_limit_of_a_plugin_attribute_is_compared():
+    # the rest are built-in MuJoCo values of the rig (body mass, drive spring), not plugin keys
+    assert set(LIMITS) - set(LIMITED) == {"mass_kg", "drive_stiffness_N_per_m",
+                                          "drive_damping_N_s_per_m"}
+
+
+@pytest.mark.parametrize("name", LIMITED)
+def test_the_plugin_range_of_an_attribute_equals_its_python_limit(name):
+    """Queried from the compiled library: the limit itself compiles, a value just past it is
+    refused with a message naming the attribute and its range, which must be LIMITS[name]."""
+    smallest, largest = LIMITS[name]
+    instance, key = PLUGIN_ATTRIBUTES[name]
+
+    def compile_with(value: float) -> str | None:
+        spec = _spec()
+        _set_config(spec, instance, {key: repr(float(value))})
+        try:
+            spec.compile()
+        except ValueError as error:
+            return str(error)
+        return None
+
+    assert compile_with(largest) is None
+    message = compile_with(largest * (1 + 1e-9))
+    assert message is not None and f"attribute '{key}'=" in message
+    rule = f"within +-{largest:g}" + (
+        f" and be 0 or at least {smallest:g} in magnitude" if smallest else " (SI units)")
+    assert rule in message
+    if smallest:
+        assert compile_with(smallest) is None
+        assert rule in (compile_with(smallest * (1 - 1e-9)) or "")
+
+
+def test_an_out_of_range_value_stops_what_would_run_nan():
+    """Values within the general 1e18 cap that make a run NaN (issue 9): their ranges refuse
+    them at compile time."""
+    for instance, key in [("drive_end_motion", "velocity"), ("table_shaker", "velocity_amplitude"),
+                          ("friction", "force_offset")]:
+        spec = _spec()
+        _set_config(spec, instance, {key: "1e18"})
+        message = _compile_error(spec)
+        assert f"attribute '{key}'=\"1e18\" is out of its physical range" in message
 
 
 LAGGED_TENDON_CASES = [

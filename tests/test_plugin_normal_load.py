@@ -132,3 +132,80 @@ def test_an_element_without_its_sensor_adds_no_acceleration_stage_work():
     data = mujoco.MjData(with_sensor)
     mujoco.mj_forward(with_sensor, data)
     assert data.flg_rnepost == 1  # the state sensor is an acceleration-stage plugin sensor
+
+
+# ---- lift-off: a negative load is clamped (the contact opens), and the sensors show it -------
+
+def test_a_load_pulled_below_zero_is_reported_and_carries_no_friction():
+    # F_N = 30 - 50 N: the lift exceeds the load; the law uses 0, the sensor shows -20 N
+    model = _model('<config key="normal" value="30"/><config key="normal_sensor" '
+                   'value="lift_force"/><config key="normal_gain" value="-1"/>')
+    data = _settle(model, steps=10, lift_N=50.0)
+    state = data.sensor("contact_state").data
+    assert state[3] == pytest.approx(-20.0, rel=1e-9)
+    assert state[0] == 0.0 and state[1] == 0.0  # no friction force, no deflection
+
+
+PLANAR_SCENE = """
+<mujoco>
+  <option timestep="1e-4"/>
+  <extension>
+    <plugin plugin="{element}">
+      <instance name="contact">
+        {law}<config key="mu" value="0.3"/><config key="normal" value="30"/>
+        <config key="normal_sensor" value="lift_force"/><config key="normal_gain" value="-1"/>
+      </instance>
+    </plugin>
+    <plugin plugin="vibrofriction.planar_sensor"/>
+  </extension>
+  <worldbody>
+    <body name="block">
+      <joint name="x" type="slide" axis="1 0 0"/><joint name="y" type="slide" axis="0 1 0"/>
+      <joint name="z" type="slide" axis="0 0 1"/>
+      <geom type="box" size="0.05 0.05 0.05" mass="2"/>
+    </body>
+  </worldbody>
+  <actuator>
+    <plugin name="cx" joint="x" instance="contact" {actdim}/>
+    <plugin name="cy" joint="y" instance="contact" {actdim}/>
+    <motor name="lift" joint="z"/>
+    <motor name="push" joint="x"/>
+  </actuator>
+  <sensor>
+    <plugin name="state" plugin="vibrofriction.planar_sensor">
+      <config key="actuator" value="cx"/>
+    </plugin>
+    <actuatorfrc name="lift_force" actuator="lift"/>
+  </sensor>
+</mujoco>"""
+
+
+@pytest.mark.parametrize("element", ["vibrofriction.planar", "vibrofriction.averaged"])
+def test_planar_sensors_report_the_unclamped_load(element):
+    vibrofriction.load()
+    planar = element == "vibrofriction.planar"
+    model = mujoco.MjModel.from_xml_string(PLANAR_SCENE.format(
+        element=element, law='<config key="law" value="coulomb"/>' if planar else "",
+        actdim='actdim="1"' if planar else ""))
+    for lift, load in ((10.0, 20.0), (50.0, -20.0)):
+        data = mujoco.MjData(model)
+        data.ctrl[model.actuator("lift").id] = lift
+        data.ctrl[model.actuator("push").id] = 1.0
+        for _ in range(10):
+            mujoco.mj_step(model, data)
+        state = data.sensor("state").data
+        assert state[6] == pytest.approx(load, rel=1e-9)
+        if load < 0:  # lifted off: no friction, the push accelerates the block freely
+            assert state[0] == 0.0 and state[1] == 0.0
+            assert data.qacc[model.joint("x").dofadr[0]] == pytest.approx(0.5, rel=1e-9)
+        else:  # held: 1 N push below mu F_N = 6 N
+            assert state[0] == pytest.approx(1.0, rel=1e-9)
+
+
+def test_a_contact_load_that_is_never_positive_is_refused():
+    # the contact force is >= 0: with normal = 0 a negative gain gives F_N <= 0 at every step
+    contact = ('<config key="contact_geom1" value="block"/>'
+               '<config key="contact_geom2" value="floor"/><config key="normal_gain" value="-1"/>')
+    with pytest.raises(ValueError, match=r"attribute 'normal_gain'=\"-1\" with normal=\"0\""):
+        _model(contact)
+    _model(contact + '<config key="normal" value="50"/>')  # 50 N less the contact: can be > 0

@@ -130,7 +130,8 @@ void AveragedTable::Evaluate(double xi_value, double angle_value, double* f_alon
   *f_across = blend(across);
 }
 
-bool AveragedConfig::FromModel(const mjModel* m, int instance, AveragedConfig* config) {
+bool AveragedConfig::FromModel(const mjModel* m, int instance, AveragedConfig* config,
+                               ReadScope scope) {
   AveragedConfig c;
   LawParameters& p = c.coulomb;
   p.law = Law::kCoulomb;
@@ -161,19 +162,19 @@ bool AveragedConfig::FromModel(const mjModel* m, int instance, AveragedConfig* c
   if (c.velocity_amplitude > 0) {
     const char* fix = "; generate the table with vibrofriction.averaged.build_table";
     if (t.xi.size() < 2 || t.xi[0] != 0.0) {
-      mju_warning("%s: attribute 'table_xi' needs at least 2 increasing values starting at 0%s",
+      ConfigError("%s: attribute 'table_xi' needs at least 2 increasing values starting at 0%s",
                   kPlugin, fix);
       return false;
     }
     if (t.angle.size() < 2 || t.angle[0] != 0.0 || std::fabs(t.angle.back() - kPi) > 1e-6) {
-      mju_warning("%s: attribute 'table_angle' needs at least 2 increasing values from 0 to pi "
+      ConfigError("%s: attribute 'table_angle' needs at least 2 increasing values from 0 to pi "
                   "(rad)%s", kPlugin, fix);
       return false;
     }
     for (const std::vector<double>* grid : {&t.xi, &t.angle}) {
       for (size_t k = 1; k < grid->size(); ++k) {
         if (!((*grid)[k] > (*grid)[k - 1])) {
-          mju_warning("%s: attribute '%s' is not strictly increasing at index %d%s", kPlugin,
+          ConfigError("%s: attribute '%s' is not strictly increasing at index %d%s", kPlugin,
                       grid == &t.xi ? kTableXi : kTableAngle, static_cast<int>(k), fix);
           return false;
         }
@@ -181,7 +182,7 @@ bool AveragedConfig::FromModel(const mjModel* m, int instance, AveragedConfig* c
     }
     const size_t cells = t.xi.size() * t.angle.size();
     if (t.along.size() != cells || t.across.size() != cells) {
-      mju_warning("%s: attributes 'table_along' and 'table_across' need %d values each "
+      ConfigError("%s: attributes 'table_along' and 'table_across' need %d values each "
                   "(len(table_xi) x len(table_angle)), got %d and %d%s", kPlugin,
                   static_cast<int>(cells), static_cast<int>(t.along.size()),
                   static_cast<int>(t.across.size()), fix);
@@ -189,7 +190,7 @@ bool AveragedConfig::FromModel(const mjModel* m, int instance, AveragedConfig* c
     }
     for (size_t k = 0; k < cells; ++k) {
       if (std::fabs(t.along[k]) > 10 || std::fabs(t.across[k]) > 10) {
-        mju_warning("%s: table value %g at index %d is not a force over mu F_N (|f| <= 10)%s",
+        ConfigError("%s: table value %g at index %d is not a force over mu F_N (|f| <= 10)%s",
                     kPlugin, std::fabs(t.along[k]) > 10 ? t.along[k] : t.across[k],
                     static_cast<int>(k), fix);
         return false;
@@ -199,8 +200,10 @@ bool AveragedConfig::FromModel(const mjModel* m, int instance, AveragedConfig* c
     return Reject(kVelocityAmplitude, c.velocity_amplitude,
                   "must be > 0 when use_ctrl is true (ctrl scales it)");
   }
-  if (!NormalLoad::FromModel(m, instance, kPlugin, &c.normal)) return false;
+  if (!NormalLoad::FromModel(m, instance, kPlugin, scope, &c.normal)) return false;
+  if (!CheckIntegrator(m, kPlugin)) return false;
   p.normal_force = c.normal.normal;
+  if (scope == ReadScope::kAttributes) return true;  // the actuators' fields are not set yet
   if (!PlanarTransmission::FromModel(m, instance, kPlugin, /*need_state=*/false, &c.transmission)) {
     return false;
   }
@@ -277,7 +280,6 @@ void AveragedFriction::RegisterPlugin() {
   plugin.capabilityflags |= mjPLUGIN_ACTUATOR;
   plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
   plugin.attributes = kAttributes;
-  plugin.nstate = NormalLoad::StateSize;
   SetPluginCallbacks<AveragedFriction, &AveragedConfig::FromModel>(&plugin);
   mjp_registerPlugin(&plugin);
 }

@@ -55,17 +55,22 @@ struct AveragedConfig {
   double axis_cos = 1, axis_sin = 0;
   bool use_ctrl = false;          // ctrl of the x actuator scales v_a
 
-  static bool FromModel(const mjModel* m, int instance, AveragedConfig* config);
+  static bool FromModel(const mjModel* m, int instance, AveragedConfig* config,
+                        ReadScope scope = ReadScope::kAll);
 };
 
 class AveragedFriction {
  public:
   static constexpr char kName[] = "vibrofriction.averaged";
-  static constexpr int kSensorDim = 7;  // F_x, F_y, 0, 0, v_x, v_y, F_N (same layout as planar)
+  // F_x, F_y, 0, 0, v_x, v_y, F_N (same layout as planar; F_N unclamped: < 0 when lifted off)
+  static constexpr int kSensorDim = 7;
 
   // From a validated config (SetPluginCallbacks builds one per plugin instance).
   explicit AveragedFriction(CachedConfig<AveragedConfig> config) : config_(std::move(config)) {}
   static void RegisterPlugin();
+  static int StateSize(const mjModel* m, int instance) {
+    return NormalLoad::StateSize(m, instance);
+  }
 
   void Compute(const mjModel* m, mjData* d, int instance);
   // Writes kSensorDim values of this element's state to `out` (vibrofriction.*_sensor).

@@ -7,20 +7,19 @@ namespace vibrofriction {
 using namespace keys;  // NOLINT: the MJCF keys read here
 
 bool RejectAttribute(const char* plugin, const char* attr, double value, const char* rule) {
-  mju_warning("%s: attribute '%s'=\"%g\" %s", plugin, attr, value, rule);
-  return false;
+  return ConfigError("%s: attribute '%s'=\"%g\" %s", plugin, attr, value, rule);
 }
 
 bool ReadLawParameters(const mjModel* m, int instance, const char* plugin, LawParameters* out) {
   LawParameters p = *out;
   const char* law_name = mj_getPluginConfig(m, instance, kLaw);
   if (law_name == nullptr || law_name[0] == '\0') {
-    mju_warning("%s: attribute 'law' is missing; add <config key=\"law\" value=\"dahl\"/> "
+    ConfigError("%s: attribute 'law' is missing; add <config key=\"law\" value=\"dahl\"/> "
                 "(one of coulomb, dahl, dupont, lugre)", plugin);
     return false;
   }
   if (!ParseLaw(law_name, &p.law)) {
-    mju_warning("%s: attribute 'law'=\"%s\" is not a friction law; use one of coulomb, dahl, "
+    ConfigError("%s: attribute 'law'=\"%s\" is not a friction law; use one of coulomb, dahl, "
                 "dupont, lugre", plugin, law_name);
     return false;
   }
@@ -80,7 +79,8 @@ bool ReadLawParameters(const mjModel* m, int instance, const char* plugin, LawPa
   return true;
 }
 
-bool NormalLoad::FromModel(const mjModel* m, int instance, const char* plugin, NormalLoad* out) {
+bool NormalLoad::FromModel(const mjModel* m, int instance, const char* plugin, ReadScope scope,
+                           NormalLoad* out) {
   NormalLoad n;
   double component = 0.0;
   if (!ReadNumber(m, instance, plugin, kNormal, 0.0, &n.normal) ||
@@ -96,25 +96,27 @@ bool NormalLoad::FromModel(const mjModel* m, int instance, const char* plugin, N
   const bool has_geom1 = geom1 && geom1[0];
   const bool has_geom2 = geom2 && geom2[0];
   if (has_sensor && (has_geom1 || has_geom2)) {
-    mju_warning("%s: attributes 'normal_sensor' and 'contact_geom1/2' are both set; use one "
+    ConfigError("%s: attributes 'normal_sensor' and 'contact_geom1/2' are both set; use one "
                 "source for the normal load", plugin);
     return false;
   }
   if (has_sensor) {
     n.sensor = mj_name2id(m, mjOBJ_SENSOR, sensor_name);
     if (n.sensor < 0) {
-      mju_warning("%s: attribute 'normal_sensor'=\"%s\" names no sensor; give the sensor that "
+      ConfigError("%s: attribute 'normal_sensor'=\"%s\" names no sensor; give the sensor that "
                   "measures the normal load a name and use it here", plugin, sensor_name);
       return false;
     }
     n.component = static_cast<int>(component);
-    if (n.component != component || n.component < 0 || n.component >= m->sensor_dim[n.sensor]) {
+    // (sensor_dim is known once the model is complete)
+    if (n.component != component || n.component < 0 ||
+        (scope == ReadScope::kAll && n.component >= m->sensor_dim[n.sensor])) {
       return RejectAttribute(plugin, kNormalComponent, component,
                     "must be a whole number below the sensor's dimension");
     }
   }
   if (has_geom1 != has_geom2) {
-    mju_warning("%s: only one of 'contact_geom1' and 'contact_geom2' is set; name both geoms "
+    ConfigError("%s: only one of 'contact_geom1' and 'contact_geom2' is set; name both geoms "
                 "whose contact carries the normal load", plugin);
     return false;
   }
@@ -122,15 +124,22 @@ bool NormalLoad::FromModel(const mjModel* m, int instance, const char* plugin, N
     n.geom1 = mj_name2id(m, mjOBJ_GEOM, geom1);
     n.geom2 = mj_name2id(m, mjOBJ_GEOM, geom2);
     if (n.geom1 < 0 || n.geom2 < 0) {
-      mju_warning("%s: attribute '%s'=\"%s\" names no geom; use the name of a geom of the "
+      ConfigError("%s: attribute '%s'=\"%s\" names no geom; use the name of a geom of the "
                   "sliding body and of its support", plugin,
                   n.geom1 < 0 ? kContactGeom1 : kContactGeom2, n.geom1 < 0 ? geom1 : geom2);
       return false;
     }
     if (n.geom1 == n.geom2) {
-      mju_warning("%s: 'contact_geom1' and 'contact_geom2' name the same geom \"%s\"; name the "
+      ConfigError("%s: 'contact_geom1' and 'contact_geom2' name the same geom \"%s\"; name the "
                   "body's geom and the support's geom", plugin, geom1);
       return false;
+    }
+    // A contact pushes (its normal force is >= 0): with no constant part, a negative gain
+    // makes F_N <= 0 at every step, a contact that never carries friction.
+    if (n.normal == 0 && n.gain < 0) {
+      return RejectAttribute(plugin, kNormalGain, n.gain,
+                             "with normal=\"0\" makes the load of the contact (>= 0) negative "
+                             "at every step; the gain must be > 0 (or give a constant normal)");
     }
   }
   *out = n;

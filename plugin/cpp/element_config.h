@@ -6,6 +6,7 @@
 #include <mujoco/mujoco.h>
 
 #include "friction_law.h"
+#include "plugin_util.h"
 
 namespace vibrofriction {
 
@@ -31,13 +32,13 @@ inline constexpr char kModulationFrequency[] = "modulation_frequency";
 inline constexpr char kModulationPhase[] = "modulation_phase";
 }  // namespace keys
 
-// Warns "<plugin>: attribute '<attr>'="<value>" <rule>" and returns false.
+// Records the error "<plugin>: attribute '<attr>'="<value>" <rule>" and returns false.
 bool RejectAttribute(const char* plugin, const char* attr, double value, const char* rule);
 
 // Reads `law` and the parameters every law shares (mu, stiffness, alpha, breakaway, sigma1,
 // viscous, static_ratio, stribeck_velocity, normal_modulation, modulation_frequency,
-// modulation_phase), strictly parsed and range-checked. On a bad value warns once, naming the
-// attribute and the fix, and returns false. Leaves the other fields of *p as they are.
+// modulation_phase), strictly parsed and range-checked. On a bad value records the error, naming
+// the attribute and the fix, and returns false. Leaves the other fields of *p as they are.
 bool ReadLawParameters(const mjModel* m, int instance, const char* plugin, LawParameters* p);
 
 // The normal load F_N = normal + normal_gain * (sensor value, or the normal force of the
@@ -52,7 +53,8 @@ struct NormalLoad {
   int geom2 = -1;
 
   // Reads normal, normal_gain, normal_sensor, normal_component, contact_geom1, contact_geom2.
-  static bool FromModel(const mjModel* m, int instance, const char* plugin, NormalLoad* out);
+  static bool FromModel(const mjModel* m, int instance, const char* plugin, ReadScope scope,
+                        NormalLoad* out);
   static int StateSize(const mjModel* m, int instance);  // 1 when contact geoms are named
   bool UsesContacts() const { return geom1 >= 0; }
   // F_N before modulation; `state` is this load's slot in the instance's plugin_state.

@@ -41,7 +41,7 @@ static bool CheckTransmission(const mjModel* m, int actuator) {
     case mjTRN_JOINT:
     case mjTRN_JOINTINPARENT:
       if (m->jnt_type[id] != mjJNT_SLIDE && m->jnt_type[id] != mjJNT_HINGE) {
-        mju_warning("%s: the actuator's joint '%s' is a ball or free joint; the element acts "
+        ConfigError("%s: the actuator's joint '%s' is a ball or free joint; the element acts "
                     "along one coordinate: put it on a slide or hinge joint (or a fixed tendon), "
                     "and use vibrofriction.planar for a body sliding in a plane", kPlugin,
                     mj_id2name(m, mjOBJ_JOINT, id) ? mj_id2name(m, mjOBJ_JOINT, id) : "");
@@ -51,7 +51,7 @@ static bool CheckTransmission(const mjModel* m, int actuator) {
     case mjTRN_TENDON:
       for (int w = m->tendon_adr[id]; w < m->tendon_adr[id] + m->tendon_num[id]; ++w) {
         if (m->wrap_type[w] != mjWRAP_JOINT) {
-          mju_warning("%s: the actuator's tendon '%s' is not a fixed tendon; write the relative "
+          ConfigError("%s: the actuator's tendon '%s' is not a fixed tendon; write the relative "
                       "motion as <fixed> over slide (or hinge) joints",
                       kPlugin, mj_id2name(m, mjOBJ_TENDON, id) ? mj_id2name(m, mjOBJ_TENDON, id)
                                                               : "");
@@ -60,12 +60,12 @@ static bool CheckTransmission(const mjModel* m, int actuator) {
       }
       break;
     default:
-      mju_warning("%s: the actuator's transmission must be a slide or hinge joint or a fixed "
+      ConfigError("%s: the actuator's transmission must be a slide or hinge joint or a fixed "
                   "tendon (joint=\"...\" or tendon=\"...\"), not a site, body or crank", kPlugin);
       return false;
   }
   if (m->actuator_gear[6 * actuator] == 0) {
-    mju_warning("%s: the actuator's gear is 0, so the element sees no motion and applies no "
+    ConfigError("%s: the actuator's gear is 0, so the element sees no motion and applies no "
                 "force; leave gear at 1", kPlugin);
     return false;
   }
@@ -106,11 +106,12 @@ static bool SharesTree(const mjModel* m, int a, int b) {
   return false;
 }
 
-bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* config) {
+bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* config,
+                               ReadScope scope) {
   FrictionConfig c;
   LawParameters& p = c.law;
   if (!ReadLawParameters(m, instance, kPlugin, &p)) return false;
-  if (!NormalLoad::FromModel(m, instance, kPlugin, &c.normal)) return false;
+  if (!NormalLoad::FromModel(m, instance, kPlugin, scope, &c.normal)) return false;
   p.normal_force = c.normal.normal;
 
   const struct {
@@ -142,18 +143,20 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
   if (c.sensor_lag < 0) {
     return RejectAttribute(kPlugin, kSensorLag, c.sensor_lag, "must be >= 0 (s)");
   }
+  if (!CheckIntegrator(m, kPlugin)) return false;
   // plugin_state: [contact normal force (if contact geoms)] [lagged friction (if sensor_lag)]
   c.lag_state = NormalLoad::StateSize(m, instance);
 
   c.actuator = FindActuator(m, instance, kPlugin);
   if (c.actuator < 0) return false;
+  if (scope == ReadScope::kAttributes) return true;  // the actuator's fields are not set yet
   if (m->actuator_actnum[c.actuator] < 1) {
-    mju_warning("%s: the actuator has no state for the deflection z; add actdim=\"1\" to the "
+    ConfigError("%s: the actuator has no state for the deflection z; add actdim=\"1\" to the "
                 "actuator plugin element", kPlugin);
     return false;
   }
   if (m->actuator_actnum[c.actuator] != 1) {
-    mju_warning("%s: actdim=\"%d\"; the element keeps one deflection z: write actdim=\"1\"",
+    ConfigError("%s: actdim=\"%d\"; the element keeps one deflection z: write actdim=\"1\"",
                 kPlugin, m->actuator_actnum[c.actuator]);
     return false;
   }
@@ -167,7 +170,7 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
     for (int a = 0; a < m->nu; ++a) {
       if (m->actuator_plugin[a] != j || !SharesTree(m, a, c.actuator)) continue;
       const char* name = mj_id2name(m, mjOBJ_PLUGIN, j);
-      mju_warning("%s: a vibrofriction.motion plugin (%s%s%s) on the same body tree is computed "
+      ConfigError("%s: a vibrofriction.motion plugin (%s%s%s) on the same body tree is computed "
                   "after this friction element; declare it as a named <extension> instance "
                   "before the friction element's (its force must be known to the element's "
                   "stick solve)", kPlugin, name ? "instance '" : "inline", name ? name : "",
@@ -233,7 +236,7 @@ void FrictionElement::WriteSensor(const mjModel* m, mjData* d, int instance, mjt
   out[0] = friction;
   out[1] = HasDeflection(config_->law.law) ? d->act[config_->act_address] : 0.0;
   out[2] = in.velocity;
-  out[3] = ModulatedNormalForce(config_->law, in);
+  out[3] = ModulatedNormalLoad(config_->law, in);  // < 0: lifted off, the law uses 0
   out[4] = config_->sensor_lag > 0
                ? d->plugin_state[m->plugin_stateadr[instance] + config_->lag_state]
                : friction;
@@ -275,7 +278,6 @@ void FrictionElement::RegisterPlugin() {
   plugin.capabilityflags |= mjPLUGIN_ACTUATOR;
   plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
   plugin.attributes = kAttributes;
-  plugin.nstate = FrictionElement::StateSize;
   SetPluginCallbacks<FrictionElement, &FrictionConfig::FromModel>(&plugin);
   mjp_registerPlugin(&plugin);
 }

@@ -33,8 +33,10 @@ struct FrictionConfig {
   int lag_state = 0;        // plugin_state offset of the lagged friction force
   double sensor_lag = 0.0;  // first-order lag of the reported friction force (s)
 
-  // Reads and validates every attribute; returns false after one mju_warning naming it.
-  static bool FromModel(const mjModel* m, int instance, FrictionConfig* config);
+  // Reads and validates every attribute (and, with ReadScope::kAll, the actuator); returns
+  // false after recording the error, naming the attribute and the fix.
+  static bool FromModel(const mjModel* m, int instance, FrictionConfig* config,
+                        ReadScope scope = ReadScope::kAll);
 };
 
 class FrictionElement {

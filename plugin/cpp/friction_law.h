@@ -55,15 +55,21 @@ struct LawInput {
   double normal_force = 0.0;  // F_N (N) before modulation (config + sensor input)
 };
 
-// Normal force (N, >= 0) after the normal-load modulation.
-inline double ModulatedNormalForce(const LawParameters& p, const LawInput& in) {
+// Normal load (N) after the normal-load modulation, unclamped: negative when a sensor or a
+// gain pulls it below 0 (lift-off). The state sensors report it, so lift-off is visible.
+inline double ModulatedNormalLoad(const LawParameters& p, const LawInput& in) {
   double normal = in.normal_force;
   if (p.normal_modulation != 0) {
     normal *= 1.0 + p.normal_modulation *
                         std::sin(2 * kPi * p.normal_modulation_frequency * in.time +
                                  p.normal_modulation_phase);
   }
-  return std::max(normal, 0.0);
+  return normal;
+}
+
+// Normal force (N, >= 0) the law uses: a lifted-off contact (load < 0) is open, no friction.
+inline double ModulatedNormalForce(const LawParameters& p, const LawInput& in) {
+  return std::max(ModulatedNormalLoad(p, in), 0.0);
 }
 
 // Coulomb level F_c (N) for the direction of motion `direction` (+1 / -1 / 0) with all effects.

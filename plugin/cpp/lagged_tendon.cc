@@ -15,17 +15,19 @@ constexpr char kPlugin[] = "vibrofriction.lagged_tendon";
 
 }  // namespace
 
-bool LaggedTendonConfig::FromModel(const mjModel* m, int instance, LaggedTendonConfig* config) {
+// Every check holds while compiling (tendon names are set): the scope does not matter.
+bool LaggedTendonConfig::FromModel(const mjModel* m, int instance, LaggedTendonConfig* config,
+                                   ReadScope /*scope*/) {
   LaggedTendonConfig c;
   const char* name = mj_getPluginConfig(m, instance, kTendon);
   if (name == nullptr || name[0] == '\0') {
-    mju_warning("%s: attribute 'tendon' is missing; name the tendon whose length it reads, "
+    ConfigError("%s: attribute 'tendon' is missing; name the tendon whose length it reads, "
                 "e.g. <config key=\"tendon\" value=\"drive_spring\"/>", kPlugin);
     return false;
   }
   c.tendon = mj_name2id(m, mjOBJ_TENDON, name);
   if (c.tendon < 0) {
-    mju_warning("%s: attribute 'tendon'=\"%s\" names no tendon of the model", kPlugin, name);
+    ConfigError("%s: attribute 'tendon'=\"%s\" names no tendon of the model", kPlugin, name);
     return false;
   }
   if (!ReadNumber(m, instance, kPlugin, kTimeConstant, 0.0, &c.time_constant)) return false;
@@ -69,7 +71,6 @@ void LaggedTendon::RegisterPlugin() {
   plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
   plugin.attributes = kAttributes;
   plugin.needstage = mjSTAGE_POS;
-  plugin.nstate = +[](const mjModel* m, int instance) { return LaggedTendon::kStateSize; };
   plugin.nsensordata = +[](const mjModel* m, int instance, int sensor_id) { return 1; };
   SetPluginCallbacks<LaggedTendon, &LaggedTendonConfig::FromModel>(&plugin);
   mjp_registerPlugin(&plugin);

@@ -26,7 +26,8 @@ struct LaggedTendonConfig {
   int tendon = -1;
   double time_constant = 0.0;  // s
 
-  static bool FromModel(const mjModel* m, int instance, LaggedTendonConfig* config);
+  static bool FromModel(const mjModel* m, int instance, LaggedTendonConfig* config,
+                        ReadScope scope = ReadScope::kAll);
 };
 
 class LaggedTendon {
@@ -36,6 +37,7 @@ class LaggedTendon {
   static constexpr int kStateSize = 3;
   explicit LaggedTendon(CachedConfig<LaggedTendonConfig> config) : config_(std::move(config)) {}
   static void RegisterPlugin();
+  static int StateSize(const mjModel* m, int instance) { return kStateSize; }
   void Compute(const mjModel* m, mjData* d, int instance);
   void Advance(const mjModel* m, mjData* d, int instance);
 

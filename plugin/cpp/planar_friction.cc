@@ -50,7 +50,7 @@ bool PlanarTransmission::FromModel(const mjModel* m, int instance, const char* p
     ++count;
   }
   if (count != 2) {
-    mju_warning("%s: the instance backs %d actuator(s); it needs exactly two, declared x then y: "
+    ConfigError("%s: the instance backs %d actuator(s); it needs exactly two, declared x then y: "
                 "<plugin joint=\"body_x\" instance=\"..\" actdim=\"1\"/> and the same for y",
                 plugin, count);
     return false;
@@ -58,19 +58,19 @@ bool PlanarTransmission::FromModel(const mjModel* m, int instance, const char* p
   for (int k = 0; k < 2; ++k) {
     const int a = t.actuator[k];
     if (need_state && m->actuator_actnum[a] < 1) {
-      mju_warning("%s: actuator %d has no state for the deflection z; add actdim=\"1\" to both "
+      ConfigError("%s: actuator %d has no state for the deflection z; add actdim=\"1\" to both "
                   "actuator plugin elements", plugin, a);
       return false;
     }
     t.output[k] = m->actuator_outadr[a];
     const int type = m->actuator_trntype[a];
     if (type != mjTRN_JOINT && type != mjTRN_TENDON) {
-      mju_warning("%s: actuator %d must act on a slide joint or a fixed tendon (the body's motion "
+      ConfigError("%s: actuator %d must act on a slide joint or a fixed tendon (the body's motion "
                   "relative to its support)", plugin, a);
       return false;
     }
     if (type == mjTRN_JOINT && m->jnt_type[m->actuator_trnid[2 * a]] != mjJNT_SLIDE) {
-      mju_warning("%s: actuator %d acts on a joint that is not a slide joint; use the body's "
+      ConfigError("%s: actuator %d acts on a joint that is not a slide joint; use the body's "
                   "slide joints along x and y", plugin, a);
       return false;
     }
@@ -78,7 +78,7 @@ bool PlanarTransmission::FromModel(const mjModel* m, int instance, const char* p
   const double gear0 = m->actuator_gear[6 * t.output[0]];
   const double gear1 = m->actuator_gear[6 * t.output[1]];
   if (std::fabs(std::fabs(gear0) - std::fabs(gear1)) > 1e-12 * (std::fabs(gear0) + 1)) {
-    mju_warning("%s: the two actuators have different gear (%g, %g); isotropic friction needs "
+    ConfigError("%s: the two actuators have different gear (%g, %g); isotropic friction needs "
                 "equal gear (leave gear at 1)", plugin, gear0, gear1);
     return false;
   }
@@ -89,7 +89,7 @@ bool PlanarTransmission::FromModel(const mjModel* m, int instance, const char* p
     ReferenceAxis(m, m->actuator_trnid[2 * t.actuator[1]], axis1);
     const double cosine = mju_dot3(axis0, axis1) / (mju_norm3(axis0) * mju_norm3(axis1));
     if (std::fabs(cosine) > 1e-6) {
-      mju_warning("%s: the two slide joints are not orthogonal (cos = %g); give them "
+      ConfigError("%s: the two slide joints are not orthogonal (cos = %g); give them "
                   "perpendicular in-plane axes, e.g. axis=\"1 0 0\" and axis=\"0 1 0\"", plugin,
                   cosine);
       return false;
@@ -168,10 +168,9 @@ bool ReadNumberList(const mjModel* m, int instance, const char* plugin, const ch
     if (!decimal || errno == ERANGE || !std::isfinite(value) ||
         std::fabs(value) > kLargestAttribute ||
         !(*end == '\0' || *end == ' ' || *end == '\t' || *end == '\n' || *end == '\r')) {
-      mju_warning("%s: attribute '%s' has a non-number at position %d; write finite decimal "
-                  "numbers (at most %g in magnitude) separated by spaces", plugin, attr,
-                  static_cast<int>(cursor - text), kLargestAttribute);
-      return false;
+      return ConfigError("%s: attribute '%s' has a non-number at position %d; write finite "
+                         "decimal numbers (at most %g in magnitude) separated by spaces", plugin,
+                         attr, static_cast<int>(cursor - text), kLargestAttribute);
     }
     out->push_back(value);
     cursor = end;
@@ -181,12 +180,15 @@ bool ReadNumberList(const mjModel* m, int instance, const char* plugin, const ch
 
 // ---- PlanarConfig --------------------------------------------------------------------------------
 
-bool PlanarConfig::FromModel(const mjModel* m, int instance, PlanarConfig* config) {
+bool PlanarConfig::FromModel(const mjModel* m, int instance, PlanarConfig* config,
+                             ReadScope scope) {
   PlanarConfig c;
   LawParameters& p = c.law;
   if (!ReadLawParameters(m, instance, kPlugin, &p)) return false;
-  if (!NormalLoad::FromModel(m, instance, kPlugin, &c.normal)) return false;
+  if (!NormalLoad::FromModel(m, instance, kPlugin, scope, &c.normal)) return false;
+  if (!CheckIntegrator(m, kPlugin)) return false;
   p.normal_force = c.normal.normal;
+  if (scope == ReadScope::kAttributes) return true;  // the actuators' fields are not set yet
   if (!PlanarTransmission::FromModel(m, instance, kPlugin, /*need_state=*/true, &c.transmission)) {
     return false;
   }
@@ -247,8 +249,7 @@ void PlanarFriction::WriteSensor(const mjModel* m, mjData* d, int instance, mjtN
   sensor[3] = state ? d->act[config_->act_address[1]] : 0.0;
   sensor[4] = d->actuator_velocity[out[0]];
   sensor[5] = d->actuator_velocity[out[1]];
-  const double mu = config_->law.friction_coefficient;
-  sensor[6] = CoulombLevel(config_->law, in, 0) / (mu > 0 ? mu : 1.0);
+  sensor[6] = ModulatedNormalLoad(config_->law, in);  // < 0: lifted off, the law uses 0
 }
 
 void PlanarFriction::Advance(const mjModel* m, mjData* d, int instance) {
@@ -275,7 +276,6 @@ void PlanarFriction::RegisterPlugin() {
   plugin.capabilityflags |= mjPLUGIN_ACTUATOR;
   plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
   plugin.attributes = kAttributes;
-  plugin.nstate = NormalLoad::StateSize;
   SetPluginCallbacks<PlanarFriction, &PlanarConfig::FromModel>(&plugin);
   mjp_registerPlugin(&plugin);
 }

@@ -69,17 +69,22 @@ struct PlanarConfig {
   PlanarTransmission transmission;
   int act_address[2] = {-1, -1};
 
-  static bool FromModel(const mjModel* m, int instance, PlanarConfig* config);
+  static bool FromModel(const mjModel* m, int instance, PlanarConfig* config,
+                        ReadScope scope = ReadScope::kAll);
 };
 
 class PlanarFriction {
  public:
   static constexpr char kName[] = "vibrofriction.planar";
-  static constexpr int kSensorDim = 7;  // F_x, F_y, z_x, z_y, v_x, v_y, F_N (modulated)
+  // F_x, F_y, z_x, z_y, v_x, v_y, F_N (modulated, unclamped: < 0 when the load lifts off)
+  static constexpr int kSensorDim = 7;
 
   // From a validated config (SetPluginCallbacks builds one per plugin instance).
   explicit PlanarFriction(CachedConfig<PlanarConfig> config) : config_(std::move(config)) {}
   static void RegisterPlugin();
+  static int StateSize(const mjModel* m, int instance) {
+    return NormalLoad::StateSize(m, instance);
+  }
 
   void Compute(const mjModel* m, mjData* d, int instance);
   // Writes kSensorDim values of this element's state to `out` (vibrofriction.*_sensor).

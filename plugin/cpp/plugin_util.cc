@@ -2,17 +2,122 @@
 
 #include <cerrno>
 #include <cmath>
+#include <cstdarg>
+#include <cstdio>
 #include <cstdlib>
 #include <cstdint>
 #include <cstring>
 #include <type_traits>
 
 namespace vibrofriction {
+namespace {
+
+// MuJoCo's compiler keeps 500 characters of an error: the message and the element's names fit.
+constexpr int kMessageSize = 480;
+thread_local char config_error[kMessageSize] = "";
+thread_local char report[kMessageSize] = "";
+
+// Physical ranges (SI) of the numeric attributes. Keys with a Python name take its
+// vibrofriction.params.LIMITS entry (tests/test_plugin_config.py compares them); the others are
+// chosen alike: far past any rig or machine, small enough that a step stays finite.
+struct NamedRange {
+  const char* attr;
+  AttributeRange range;
+};
+constexpr NamedRange kRanges[] = {
+    // friction elements (params.FrictionParameters, RigParameters.normal_force_N)
+    {"mu", {0.0, 1e9}},                     // friction_coefficient
+    {"normal", {0.0, 1e9}},                 // normal_force_N
+    {"normal_gain", {0.0, 1e9}},            // N per unit of the sensor or contact force
+    {"stiffness", {0.0, 1e18}},             // contact_stiffness_N_per_m
+    {"alpha", {0.0, 1e3}},
+    {"sigma1", {0.0, 1e15}},                // bristle_damping_N_s_per_m
+    {"viscous", {0.0, 1e15}},               // viscous_N_s_per_m
+    {"static_ratio", {0.0, 1e3}},
+    {"stribeck_velocity", {1e-15, 1e3}},    // stribeck_velocity_m_per_s
+    {"ripple_wavelength", {1e-15, 1e6}},    // position_ripple_wavelength_m
+    {"ripple_phase", {0.0, 1e6}},           // position_ripple_phase_rad
+    {"modulation_frequency", {0.0, 1e9}},   // normal_force_modulation_frequency_Hz
+    {"modulation_phase", {0.0, 1e6}},       // normal_force_modulation_phase_rad
+    {"force_offset", {0.0, 1e9}},           // force_offset_N
+    {"sensor_lag", {0.0, 1e3}},             // sensor_lag_s
+    {"axis_angle", {0.0, 1e6}},             // rad
+    // vibrofriction.motion and the averaged element (params.RigParameters)
+    {"frequency", {0.0, 1e7}},              // vibration_frequency_Hz
+    {"velocity_amplitude", {0.0, 1e3}},     // vibration_velocity_amplitude_m_per_s
+    {"velocity", {1e-12, 1e3}},             // drive_velocity_m_per_s
+    {"phase", {0.0, 1e6}},                  // rad
+    // vibrofriction.lagged_tendon
+    {"time_constant", {0.0, 1e3}},          // s, as sensor_lag_s
+};
+
+const NamedRange* FindRange(const char* attr) {
+  for (const NamedRange& named : kRanges) {
+    if (std::strcmp(named.attr, attr) == 0) return &named;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+bool ConfigError(const char* format, ...) {
+  std::va_list args;
+  va_start(args, format);
+  std::vsnprintf(config_error, sizeof(config_error), format, args);
+  va_end(args);
+  return false;
+}
+
+void ReportConfigError(const mjModel* m, int instance, bool fatal) {
+  // Plain buffers only: mju_error leaves this frame by longjmp inside MuJoCo's compiler.
+  const mjpPlugin* plugin = mjp_getPluginAtSlot(m->plugin[instance]);
+  const char* name = plugin && plugin->name ? plugin->name : "vibrofriction";
+  const std::size_t length = std::strlen(name);
+  const char* message = config_error;
+  if (std::strncmp(message, name, length) == 0 && std::strncmp(message + length, ": ", 2) == 0) {
+    message += length + 2;  // the element is named below, with its plugin
+  }
+  // Where: the instance's name and the actuators and sensors it backs.
+  char where[160] = "";
+  int used = 0;
+  auto add = [&](const char* kind, const char* element, int id) {
+    if (used >= static_cast<int>(sizeof(where)) - 1) return;
+    const char* separator = used ? ", " : "";
+    used += element && element[0]
+                ? std::snprintf(where + used, sizeof(where) - used, "%s%s '%.40s'", separator,
+                                kind, element)
+                : std::snprintf(where + used, sizeof(where) - used, "%s%s %d", separator, kind,
+                                id);
+  };
+  const char* instance_name = mj_id2name(m, mjOBJ_PLUGIN, instance);
+  if (instance_name && instance_name[0]) add("instance", instance_name, instance);
+  for (int i = 0; i < m->nu; ++i) {
+    if (m->actuator_plugin[i] == instance) add("actuator", mj_id2name(m, mjOBJ_ACTUATOR, i), i);
+  }
+  for (int i = 0; i < m->nsensor; ++i) {
+    if (m->sensor_plugin[i] == instance) add("sensor", mj_id2name(m, mjOBJ_SENSOR, i), i);
+  }
+  if (!used) add("plugin instance", nullptr, instance);
+  std::snprintf(report, sizeof(report), "%s (%s): %s", name, where, message);
+  if (fatal) {
+    mju_error("%s", report);
+  } else {
+    mju_warning("%s", report);
+  }
+}
+
+bool CheckIntegrator(const mjModel* m, const char* plugin) {
+  if (m->opt.integrator != mjINT_RK4) return true;
+  return ConfigError("%s: option integrator=\"RK4\" is not supported: the plugin assumes one "
+                     "semi-implicit Euler step per force (RK4 evaluates it at four intermediate "
+                     "states); write <option integrator=\"Euler\"/> (or \"implicitfast\")",
+                     plugin);
+}
 
 bool ReadNumber(const mjModel* m, int instance, const char* plugin, const char* attr,
                 double default_value, double* out) {
   const char* text = mj_getPluginConfig(m, instance, attr);
-  if (text == nullptr || text[0] == '\0') {
+  if (text == nullptr || text[0] == '\0') {  // absent, or value="": MuJoCo stores both as ""
     *out = default_value;
     return true;
   }
@@ -24,19 +129,31 @@ bool ReadNumber(const mjModel* m, int instance, const char* plugin, const char* 
   const bool hexadecimal = std::strpbrk(text, "xXpP") != nullptr;
   if (end == text || (end && *end != '\0') || hexadecimal ||
       (errno == ERANGE && std::fabs(value) > 1) || !std::isfinite(value)) {
-    mju_warning("%s: attribute '%s'=\"%s\" is not a finite number in decimal notation; write "
-                "a plain number, e.g. %s=\"%g\"", plugin, attr, text, attr, default_value);
-    return false;
+    return ConfigError("%s: attribute '%s'=\"%.40s\" is not a finite number in decimal "
+                       "notation; write a plain number, e.g. %s=\"%g\"", plugin, attr, text,
+                       attr, default_value);
   }
   if (errno == ERANGE) {  // underflow: the text is not zero but reads as 0 or a denormal
-    mju_warning("%s: attribute '%s'=\"%s\" is too small to represent (below 2.2e-308); write 0 "
-                "or a number of normal size", plugin, attr, text);
-    return false;
+    return ConfigError("%s: attribute '%s'=\"%.40s\" is too small to represent (below "
+                       "2.2e-308); write 0 or a number of normal size", plugin, attr, text);
   }
-  if (std::fabs(value) > kLargestAttribute) {
-    mju_warning("%s: attribute '%s'=\"%s\" is beyond +-%g, past any physical value (SI units); "
-                "check the unit", plugin, attr, text, kLargestAttribute);
-    return false;
+  const NamedRange* named = FindRange(attr);
+  const AttributeRange range = named ? named->range : AttributeRange{};
+  const double magnitude = std::fabs(value);
+  if (magnitude > range.largest || (magnitude > 0 && magnitude < range.smallest)) {
+    if (!named) {
+      return ConfigError("%s: attribute '%s'=\"%.40s\" is beyond +-%g, past any physical "
+                         "value (SI units); check the unit", plugin, attr, text,
+                         kLargestAttribute);
+    }
+    char smallest[64] = "";
+    if (range.smallest > 0) {
+      std::snprintf(smallest, sizeof(smallest), " and be 0 or at least %g in magnitude",
+                    range.smallest);
+    }
+    return ConfigError("%s: attribute '%s'=\"%.40s\" is out of its physical range: it must lie "
+                       "within +-%g%s (SI units); check the unit", plugin, attr, text,
+                       range.largest, smallest);
   }
   *out = value;
   return true;
@@ -53,8 +170,8 @@ bool ReadBool(const mjModel* m, int instance, const char* plugin, const char* at
     *out = text[0] == 't';
     return true;
   }
-  mju_warning("%s: attribute '%s'=\"%s\" must be \"true\" or \"false\"", plugin, attr, text);
-  return false;
+  return ConfigError("%s: attribute '%s'=\"%.40s\" must be \"true\" or \"false\"", plugin,
+                     attr, text);
 }
 
 std::string ConfigFingerprint(const mjModel* m, int instance) {
@@ -68,14 +185,14 @@ int FindActuator(const mjModel* m, int instance, const char* plugin) {
   for (int i = 0; i < m->nu; ++i) {
     if (m->actuator_plugin[i] != instance) continue;
     if (found != -1) {
-      mju_warning("%s: one plugin instance backs several actuators; give each actuator its "
+      ConfigError("%s: one plugin instance backs several actuators; give each actuator its "
                   "own <plugin> element", plugin);
       return -1;
     }
     found = i;
   }
   if (found == -1) {
-    mju_warning("%s: no actuator uses this plugin instance; reference it from an "
+    ConfigError("%s: no actuator uses this plugin instance; reference it from an "
                 "<actuator><plugin .../> element", plugin);
   }
   return found;

@@ -21,16 +21,46 @@ namespace vibrofriction {
 // small enough that a step's arithmetic stays finite. Narrower ranges are checked per attribute.
 inline constexpr double kLargestAttribute = 1e18;
 
+// Physical range of a numeric attribute: 0 or a magnitude in [smallest, largest] (SI units).
+// Each key has one range, whichever plugin reads it (kRanges in plugin_util.cc; those with a
+// Python name equal vibrofriction.params.LIMITS, checked by tests/test_plugin_config.py).
+struct AttributeRange {
+  double smallest = 0.0;  // smallest non-zero magnitude (0: any)
+  double largest = kLargestAttribute;
+};
+
+// Why a config is invalid. The readers record the message (ConfigError, one per failure, as
+// "<plugin>: <what and the fix>") and return false; the plugin callbacks report it once,
+// naming the element (ReportConfigError).
+bool ConfigError(const char* format, ...) mjPRINTFLIKE(1, 2);
+
+// Reports the recorded message as "<plugin> (instance 'name', actuator 'name'): <message>".
+// fatal: mju_error (compile time, before mjData exists: MuJoCo's compiler shows exactly this
+// text); otherwise mju_warning.
+void ReportConfigError(const mjModel* m, int instance, bool fatal);
+
+// What a config reader checks. kAttributes: the values alone, while MuJoCo's compiler queries
+// the plugin's state size (names, joints, options and actuator_plugin are set; the actuators'
+// transmissions, sensors and tendons are not yet). kAll: everything, with the complete model.
+enum class ReadScope { kAttributes, kAll };
+
 // Reads a numeric attribute; the whole string must be a finite decimal number (no hexadecimal,
-// no underflow to 0, at most kLargestAttribute in magnitude). Returns false and warns (naming
-// plugin, attribute, value and the fix) when it is not. Missing (or empty: MuJoCo stores an
-// empty value as no value) -> default.
+// no underflow to 0) within the attribute's range (kLargestAttribute when it has none of its
+// own). Returns false and records the error (naming plugin,
+// attribute, value and the fix) when it is not. Missing -> default (an empty value="" is
+// stored by MuJoCo exactly as a missing key: the plugin cannot tell them apart).
 bool ReadNumber(const mjModel* m, int instance, const char* plugin, const char* attr,
                 double default_value, double* out);
 
-// Reads a "true"/"false" attribute (missing -> default); warns naming it otherwise.
+// Reads a "true"/"false" attribute (missing -> default); records an error naming it otherwise.
 bool ReadBool(const mjModel* m, int instance, const char* plugin, const char* attr,
               bool default_value, bool* out);
+
+// Refuses integrator="RK4" (records the error and returns false): the friction elements' stick
+// solve and state update and the motion's landing on s(t + dt) assume one semi-implicit Euler
+// step per force; RK4 calls compute at four intermediate states. Euler, implicit and
+// implicitfast integrate the velocity by that step (README, "Time stepping").
+bool CheckIntegrator(const mjModel* m, const char* plugin);
 
 // Raw config bytes of an instance: equal bytes <=> equal configuration. Rollout and batch can
 // step one mjData with several models, so plugins compare this each step, not a model pointer.
@@ -55,16 +85,17 @@ inline bool ConfigUnchanged(const mjModel* m, int instance, const std::string& f
 template <class Config>
 class CachedConfig {
  public:
-  using Reader = bool (*)(const mjModel* m, int instance, Config* config);
+  using ConfigType = Config;
+  using Reader = bool (*)(const mjModel* m, int instance, Config* config, ReadScope scope);
 
-  // The config of `instance`, or nullopt when it is invalid (the reader has warned).
+  // The config of `instance`, or nullopt when it is invalid (the reader has recorded why).
   static std::optional<CachedConfig> Load(Reader read, const mjModel* m, int instance) {
     Config config;
-    if (!read(m, instance, &config)) return std::nullopt;
+    if (!read(m, instance, &config, ReadScope::kAll)) return std::nullopt;
     return CachedConfig(read, std::move(config), ConfigFingerprint(m, instance));
   }
 
-  // False when the config of `m` is invalid (the reader has warned, naming the attribute).
+  // False when the config of `m` is invalid (warned once, naming the element and attribute).
   bool Refresh(const mjModel* m, int instance, bool later_in_step = false) {
     // exact: a model freed and another compiled at its address must not pass for it
     if (m == model_ && (later_in_step || ConfigUnchanged(m, instance, fingerprint_))) {
@@ -83,7 +114,8 @@ class CachedConfig {
     model_ = m;
     if (ConfigUnchanged(m, instance, fingerprint_)) return valid_;
     fingerprint_ = ConfigFingerprint(m, instance);
-    valid_ = read_(m, instance, &config_);
+    valid_ = read_(m, instance, &config_, ReadScope::kAll);
+    if (!valid_) ReportConfigError(m, instance, /*fatal=*/false);
     return valid_;
   }
   Reader read_;
@@ -93,9 +125,18 @@ class CachedConfig {
   bool valid_ = true;
 };
 
-// CachedConfig<Config> for a reader bool(const mjModel*, int, Config*) (declaration only).
+// CachedConfig<Config> for a reader bool(const mjModel*, int, Config*, ReadScope)
+// (declaration only).
 template <class Config>
-CachedConfig<Config> ConfigOfReader(bool (*)(const mjModel*, int, Config*));
+CachedConfig<Config> ConfigOfReader(bool (*)(const mjModel*, int, Config*, ReadScope));
+
+// Checks the attribute values of `instance` (ReadScope::kAttributes), false when invalid.
+// Separate from the nstate callback so that no C++ object is alive when it raises mju_error.
+template <auto Read>
+bool AttributesValid(const mjModel* m, int instance) {
+  typename decltype(ConfigOfReader(Read))::ConfigType config;
+  return Read(m, instance, &config, ReadScope::kAttributes);
+}
 
 template <class T, class = void>
 struct HasAdvance : std::false_type {};
@@ -108,15 +149,28 @@ T* InstanceOf(mjData* d, int instance) {
 }
 
 // The plugin callbacks of a plugin class T, one T per instance in mjData.plugin_data:
-// init builds T from the instance's config read by `Read` (bool Read(m, instance, Config*);
-// T has a constructor from CachedConfig<Config>) and fails when the config is invalid; destroy
-// deletes it; compute (and advance, when T has one) forward to T; reset zeroes the instance's
-// plugin_state (contact force, lagged force: 0 before the first step, like z).
+// nstate checks the attribute values (Read with ReadScope::kAttributes) and raises one
+// mju_error naming the element when one is invalid, then returns T::StateSize: MuJoCo's
+// compiler calls it before it makes any mjData, so the error is its whole message and nothing
+// leaks (an mju_error from init would leak the mjData being made; a failing init makes MuJoCo
+// print "plugin->init failed" and the warning twice). init builds T from the config read by
+// `Read` (bool Read(m, instance, Config*, ReadScope); T has a constructor from
+// CachedConfig<Config>) and fails, warning once, on what only the complete model shows (a
+// transmission, actdim); destroy deletes it; compute (and advance, when T has one) forward to
+// T; reset zeroes the instance's plugin_state (contact force, lagged force: 0 before the first
+// step, like z).
 template <class T, auto Read>
 void SetPluginCallbacks(mjpPlugin* plugin) {
+  plugin->nstate = +[](const mjModel* m, int instance) {
+    if (!AttributesValid<Read>(m, instance)) ReportConfigError(m, instance, /*fatal=*/true);
+    return T::StateSize(m, instance);
+  };
   plugin->init = +[](const mjModel* m, mjData* d, int instance) {
     auto config = decltype(ConfigOfReader(Read))::Load(Read, m, instance);
-    if (!config) return -1;
+    if (!config) {
+      ReportConfigError(m, instance, /*fatal=*/false);
+      return -1;
+    }
     d->plugin_data[instance] = reinterpret_cast<uintptr_t>(new T(std::move(*config)));
     return 0;
   };

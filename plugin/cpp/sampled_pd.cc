@@ -24,7 +24,9 @@ enum : int { kHeld, kPending, kLastPosition, kLastFiltered, kNextSample, kStarte
 
 }  // namespace
 
-bool SampledPdConfig::FromModel(const mjModel* m, int instance, SampledPdConfig* config) {
+// Every check holds while compiling (names, options, actuator_plugin): the scope does not matter.
+bool SampledPdConfig::FromModel(const mjModel* m, int instance, SampledPdConfig* config,
+                                ReadScope /*scope*/) {
   SampledPdConfig c;
   double delay = 0.0;
   if (!ReadNumber(m, instance, kPlugin, kPositionGain, 0.0, &c.position_gain) ||
@@ -49,10 +51,9 @@ bool SampledPdConfig::FromModel(const mjModel* m, int instance, SampledPdConfig*
     return RejectAttribute(kPlugin, kSaturation, c.saturation, "must be >= 0 (0: no limit)");
   }
   if (m->opt.integrator == mjINT_RK4) {
-    mju_warning("%s: the RK4 integrator evaluates the controller at intermediate stages; use "
-                "integrator=\"Euler\" or \"implicitfast\" (the controller samples once a step)",
-                kPlugin);
-    return false;
+    return ConfigError("%s: the RK4 integrator evaluates the controller at intermediate stages; "
+                       "use integrator=\"Euler\" or \"implicitfast\" (the controller samples "
+                       "once a step)", kPlugin);
   }
   // (a relative tolerance: a timestep written to MJCF with 6 digits may round up past it)
   if (c.sample_period < m->opt.timestep * (1 - 1e-5)) {
@@ -136,7 +137,6 @@ void SampledPd::RegisterPlugin() {
   plugin.capabilityflags |= mjPLUGIN_ACTUATOR;
   plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
   plugin.attributes = kAttributes;
-  plugin.nstate = +[](const mjModel* m, int instance) { return SampledPd::kStateSize; };
   SetPluginCallbacks<SampledPd, &SampledPdConfig::FromModel>(&plugin);
   mjp_registerPlugin(&plugin);
 }

@@ -33,7 +33,8 @@ struct SampledPdConfig {
   int command_delay = 0;         // samples (0 or 1)
   int actuator = -1;
 
-  static bool FromModel(const mjModel* m, int instance, SampledPdConfig* config);
+  static bool FromModel(const mjModel* m, int instance, SampledPdConfig* config,
+                        ReadScope scope = ReadScope::kAll);
 };
 
 class SampledPd {
@@ -42,6 +43,7 @@ class SampledPd {
   static constexpr int kStateSize = 6;
   explicit SampledPd(CachedConfig<SampledPdConfig> config) : config_(std::move(config)) {}
   static void RegisterPlugin();
+  static int StateSize(const mjModel* m, int instance) { return kStateSize; }
   void Compute(const mjModel* m, mjData* d, int instance);
   void Advance(const mjModel* m, mjData* d, int instance);
 

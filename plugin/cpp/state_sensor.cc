@@ -51,18 +51,20 @@ struct SensorConfig {
   int element = -1;          // plugin instance of the friction element
   Writer write = nullptr;
 
+  // Every check holds while compiling (actuator names, actuator_plugin): scope does not matter.
   template <class Spec>
-  static bool FromModel(const mjModel* m, int instance, SensorConfig* config) {
+  static bool FromModel(const mjModel* m, int instance, SensorConfig* config,
+                        ReadScope /*scope*/) {
     const char* name = mj_getPluginConfig(m, instance, kActuator);
     if (name == nullptr || name[0] == '\0') {
-      mju_warning("%s: attribute 'actuator' is missing; name the actuator of a %s element, "
+      ConfigError("%s: attribute 'actuator' is missing; name the actuator of a %s element, "
                   "e.g. <config key=\"actuator\" value=\"friction\"/>", Spec::kName,
                   Spec::kElements);
       return false;
     }
     const int actuator = mj_name2id(m, mjOBJ_ACTUATOR, name);
     if (actuator < 0) {
-      mju_warning("%s: attribute 'actuator'=\"%s\" names no actuator; use the name of the "
+      ConfigError("%s: attribute 'actuator'=\"%s\" names no actuator; use the name of the "
                   "friction element's actuator", Spec::kName, name);
       return false;
     }
@@ -70,7 +72,7 @@ struct SensorConfig {
     const mjpPlugin* plugin = element >= 0 ? mjp_getPluginAtSlot(m->plugin[element]) : nullptr;
     const Writer write = plugin ? Spec::Resolve(plugin->name) : nullptr;
     if (write == nullptr) {
-      mju_warning("%s: attribute 'actuator'=\"%s\" is not backed by %s; name an actuator "
+      ConfigError("%s: attribute 'actuator'=\"%s\" is not backed by %s; name an actuator "
                   "<plugin> of that element", Spec::kName, name, Spec::kElements);
       return false;
     }
@@ -84,6 +86,7 @@ template <class Spec>
 class StateSensor {
  public:
   explicit StateSensor(CachedConfig<SensorConfig> config) : config_(std::move(config)) {}
+  static int StateSize(const mjModel* m, int instance) { return 0; }
 
   void Compute(const mjModel* m, mjData* d, int instance) {
     for (int s = 0; s < m->nsensor; ++s) {
@@ -105,7 +108,6 @@ class StateSensor {
     plugin.nattribute = 1;
     plugin.attributes = kAttributes;
     plugin.needstage = mjSTAGE_ACC;  // after actuation: this step's friction force
-    plugin.nstate = +[](const mjModel* m, int instance) { return 0; };
     plugin.nsensordata = +[](const mjModel* m, int instance, int sensor_id) {
       return Spec::kDim;
     };

@@ -23,7 +23,8 @@ constexpr double kPi = 3.14159265358979323846;
 
 }  // namespace
 
-bool MotionConfig::FromModel(const mjModel* m, int instance, MotionConfig* config) {
+bool MotionConfig::FromModel(const mjModel* m, int instance, MotionConfig* config,
+                             ReadScope scope) {
   MotionConfig c;
   if (!ReadNumber(m, instance, kPlugin, kFrequency, 0.0, &c.frequency) ||
       !ReadNumber(m, instance, kPlugin, kVelocityAmplitude, 0.0, &c.velocity_amplitude) ||
@@ -39,25 +40,27 @@ bool MotionConfig::FromModel(const mjModel* m, int instance, MotionConfig* confi
   if (c.displacement_from_ctrl &&
       (c.frequency != 0 || c.velocity_amplitude != 0 || c.velocity != 0 || c.phase != 0 ||
        c.use_ctrl)) {
-    mju_warning("%s: displacement_from_ctrl=\"true\" takes the whole motion from ctrl; remove "
+    ConfigError("%s: displacement_from_ctrl=\"true\" takes the whole motion from ctrl; remove "
                 "frequency, velocity_amplitude, velocity, phase and use_ctrl", kPlugin);
     return false;
   }
   if (c.frequency < 0) {
-    mju_warning("%s: attribute 'frequency'=\"%g\" must be >= 0 (Hz)", kPlugin, c.frequency);
+    ConfigError("%s: attribute 'frequency'=\"%g\" must be >= 0 (Hz)", kPlugin, c.frequency);
     return false;
   }
   if (c.velocity_amplitude < 0) {
-    mju_warning("%s: attribute 'velocity_amplitude'=\"%g\" must be >= 0 (m/s)", kPlugin,
+    ConfigError("%s: attribute 'velocity_amplitude'=\"%g\" must be >= 0 (m/s)", kPlugin,
                 c.velocity_amplitude);
     return false;
   }
   if (c.velocity_amplitude > 0 && c.frequency == 0) {
-    mju_warning("%s: velocity_amplitude is set but frequency is 0; set frequency (Hz)", kPlugin);
+    ConfigError("%s: velocity_amplitude is set but frequency is 0; set frequency (Hz)", kPlugin);
     return false;
   }
+  if (!CheckIntegrator(m, kPlugin)) return false;
   c.actuator = FindActuator(m, instance, kPlugin);
   if (c.actuator < 0) return false;
+  if (scope == ReadScope::kAttributes) return true;  // the actuator's fields are not set yet
   c.output = m->actuator_outadr[c.actuator];
   *config = c;
   return true;
@@ -103,7 +106,6 @@ void SupportMotion::RegisterPlugin() {
   plugin.capabilityflags |= mjPLUGIN_ACTUATOR;
   plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
   plugin.attributes = kAttributes;
-  plugin.nstate = +[](const mjModel* m, int instance) { return 0; };
   SetPluginCallbacks<SupportMotion, &MotionConfig::FromModel>(&plugin);
   mjp_registerPlugin(&plugin);
 }

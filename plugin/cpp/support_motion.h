@@ -35,7 +35,8 @@ struct MotionConfig {
   int actuator = -1;
   int output = -1;
 
-  static bool FromModel(const mjModel* m, int instance, MotionConfig* config);
+  static bool FromModel(const mjModel* m, int instance, MotionConfig* config,
+                        ReadScope scope = ReadScope::kAll);
   // Prescribed displacement from the transmission's reference length at time t.
   double Displacement(double t, double amplitude_scale) const;
 };
@@ -46,6 +47,7 @@ class SupportMotion {
   // From a validated config (SetPluginCallbacks builds one per plugin instance).
   explicit SupportMotion(CachedConfig<MotionConfig> config) : config_(std::move(config)) {}
   static void RegisterPlugin();
+  static int StateSize(const mjModel* m, int instance) { return 0; }
   void Compute(const mjModel* m, mjData* d, int instance);
 
  private:
