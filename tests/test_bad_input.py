@@ -79,8 +79,12 @@ CASES = [
     (["simulate", "--csv", "run.csv", "--json", "run.json", *SHORT],
      "--json run.json is also written as the sidecar of --csv run.csv"),
     # an existing --out is replaced as a whole: only an earlier report or an empty folder
-    (["identify", "good.csv", "--out", "a_folder"], "not an earlier report (no report.json)"),
+    (["identify", "good.csv", "--out", "a_folder"], "not an earlier output (no report.json)"),
     (["identify", "good.csv", "--out", "."], "holds the current folder"),
+    (["reproduce", "--quick", "--out", "a_folder"], "not an earlier output (no claims.json)"),
+    (["reproduce", "--quick", "--out", "."], "holds the current folder"),
+    (["compare-builtin", "--quick", "--out", "a_folder"],
+     "not an earlier output (no builtin.json)"),
     # too many steps: the parameter values that made the default duration or timestep
     (["simulate", "--set", "normal_force_N=1e9"],
      "the default duration 800000 s (two loadings of the drive spring to breakaway"),

@@ -144,6 +144,20 @@ def check_output_folder(path: Path | None, option: str) -> None:
             raise UsageError(f"{option} {path}: {candidate} is a file; name a folder")
 
 
+def check_replaceable_folder(path: Path, option: str, marker: str) -> None:
+    """UsageError unless ``path`` may be replaced as a whole: absent, empty, or an earlier
+    output of the same command (it holds ``marker``), and not holding the current folder."""
+    folder = Path(os.path.abspath(path))
+    cwd = Path(os.path.abspath(Path.cwd()))
+    if cwd == folder or folder in cwd.parents:
+        raise UsageError(f"{option} {path} holds the current folder and would be replaced as "
+                         "a whole; name another folder")
+    if folder.is_dir() and any(folder.iterdir()) and not (folder / marker).is_file():
+        raise UsageError(f"{option} {path} is a folder that is not an earlier output (no "
+                         f"{marker}) and would be replaced as a whole; name a new folder or "
+                         "empty it")
+
+
 class ArgumentParser(argparse.ArgumentParser):
     """argparse, with every number that starts with '-' taken as a value, not an option:
     argparse alone knows only -1 and -.5, so ``--va -1e-3`` would be "expected one argument"

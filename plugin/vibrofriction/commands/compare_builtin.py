@@ -5,7 +5,8 @@ import argparse
 import json
 from pathlib import Path
 
-from ..cli import add_common_arguments, parse_overrides, write_json
+from ..cli import add_common_arguments, check_replaceable_folder, parse_overrides, write_json
+from ..datasets import all_or_nothing, stage_folder
 from ..params import PAPER_CONTACT_STIFFNESS_N_PER_M, FrictionParameters, ParameterError, \
     apply_overrides
 from ..study import builtin
@@ -62,14 +63,21 @@ def run(args: argparse.Namespace) -> int:
         cmp_changes["ladder_steps"] = steps
     from dataclasses import replace
     cmp_config = replace(cmp_config, **cmp_changes)
+    check_replaceable_folder(args.out, "--out", "builtin.json")
     log = StageLog(1, quiet=args.quiet)
     log.stage(f"{len(needed)} variants, ladder {list(cmp_config.ladder_steps)} steps per period")
     result = builtin.compare(config, cmp_config, progress=log.progress)
-    paths = builtin.write_comparison(result, args.out)
     payload = comparison_json(result)
-    (Path(args.out) / "builtin.json").write_text(json.dumps(payload, indent=2) + "\n")
-    if args.json_path is not None:
-        write_json(args.json_path, payload)
+
+    def write(folder: Path) -> None:
+        builtin.write_comparison(result, folder)
+        (folder / "builtin.json").write_text(json.dumps(payload, indent=2) + "\n")
+
+    with all_or_nothing():  # DIR and --json FILE: both or neither
+        stage_folder(args.out, write)
+        if args.json_path is not None:
+            write_json(args.json_path, payload)
     print(builtin.comparison_table(result))
-    print(f"wrote {paths['md']}, {paths['png']} and CSV tables")
+    print(f"wrote {args.out / 'builtin.md'}, {args.out / 'builtin_comparison.png'} and CSV "
+          "tables")
     return 0

@@ -14,7 +14,8 @@ import sys
 import time
 from pathlib import Path
 
-from ..cli import UsageError, check_output_folder, check_writable, parse_overrides, write_json
+from ..cli import (UsageError, check_output_folder, check_replaceable_folder, check_writable,
+                   parse_overrides, write_json)
 from ..datasets import Dataset, all_or_nothing, read_dataset
 from ..identify import EFFECTS, MIN_IMPROVEMENT, identify
 from ..identify.report import report_json, rig_replay, write_report
@@ -144,17 +145,14 @@ def _check_out(out: Path, args: argparse.Namespace) -> None:
     check_output_folder(out, "--out")
     check_writable(out, "--out")
     folder = Path(os.path.abspath(out))
-    inside = [Path(os.path.abspath(p)) for p in (Path.cwd(), args.data, *args.validate,
+    check_replaceable_folder(out, "--out", "report.json")
+    inside = [Path(os.path.abspath(p)) for p in (args.data, *args.validate,
                                                  *([args.json_path] if args.json_path else []))]
-    for path, what in zip(inside, ["the current folder", "DATA", *["--validate DATA"] *
-                                   len(args.validate), "--json FILE"]):
+    for path, what in zip(inside, ["DATA", *["--validate DATA"] * len(args.validate),
+                                   "--json FILE"]):
         if path == folder or folder in path.parents:
             raise UsageError(f"--out {out} holds {what} ({path}) and would be replaced as a "
                              "whole; name another folder")
-    if folder.is_dir() and any(folder.iterdir()) and not (folder / "report.json").is_file():
-        raise UsageError(f"--out {out} is a folder that is not an earlier report (no "
-                         "report.json) and would be replaced as a whole; name a new folder "
-                         "or empty it")
 
 
 def _method(requested: str, train: Dataset) -> tuple[str, str]:

@@ -7,7 +7,8 @@ import shlex
 import sys
 from pathlib import Path
 
-from ..cli import add_common_arguments, parse_overrides, write_json
+from ..cli import add_common_arguments, check_replaceable_folder, parse_overrides, write_json
+from ..datasets import all_or_nothing, stage_folder
 from ..params import PAPER_CONTACT_STIFFNESS_N_PER_M, ParameterError, apply_overrides
 from ..study.claims import _clean, summary_json
 from ..study.config import PAPER_RIG, StudyConfig
@@ -19,7 +20,9 @@ HELP = ("regenerate the paper's figures (Figs. 7-14, master curves), the built-i
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT, metavar="DIR",
-                        help=f"output folder (default ./{DEFAULT_OUT})")
+                        help=f"output folder (default ./{DEFAULT_OUT}); written beside it and "
+                             "put in place when the run ends, so an existing DIR (empty or an "
+                             "earlier output: it holds claims.json) is replaced as a whole")
     parser.add_argument("--quick", action="store_true",
                         help="small grids (a smoke run of every figure, about a minute)")
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
@@ -58,14 +61,22 @@ def config_from_args(args: argparse.Namespace) -> StudyConfig:
 
 def run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
+    check_replaceable_folder(args.out, "--out", "claims.json")
     command = "vibrofriction " + " ".join(shlex.quote(a) for a in sys.argv[1:]) \
         if sys.argv and sys.argv[0].endswith("vibrofriction") else \
         f"vibrofriction reproduce{' --quick' if args.quick else ''} --out {args.out}"
-    results, claims = reproduce(args.out, config=config, scheduler=args.scheduler,
-                                with_builtin=args.builtin, with_sweep=args.sweep,
-                                quiet=args.quiet, command=command)
-    if args.json_path is not None:
-        write_json(args.json_path, _clean(summary_json(results, claims)))
+    made = {}
+
+    def write(folder: Path) -> None:
+        made["results"], made["claims"] = reproduce(
+            folder, config=config, scheduler=args.scheduler, with_builtin=args.builtin,
+            with_sweep=args.sweep, quiet=args.quiet, command=command)
+
+    with all_or_nothing():  # DIR and --json FILE: both or neither, DIR only when complete
+        stage_folder(args.out, write)
+        results, claims = made["results"], made["claims"]
+        if args.json_path is not None:
+            write_json(args.json_path, _clean(summary_json(results, claims)))
     held = sum(1 for c in claims if c.holds == "yes")
     print(f"wrote {args.out}/summary.md, claims.json and {len(results.files)} files; "
           f"{held} of {len(claims)} claims hold in this run ({results.wall_s:.0f} s)")
