@@ -119,6 +119,36 @@ def test_position_only_record_round_trip() -> None:
     assert abs(result.final.values["initial_velocity_m_per_s"]) < 1e-3 * RIG.vibration_velocity_amplitude_m_per_s
 
 
+def _with_sensor_noise(dataset: Dataset, seed: int = 0) -> Dataset:
+    """The record as sensors would give it: white noise of synthetic.SensorNoise's sizes
+    (force 0.05 N, velocity 20 um/s, position 1 nm, acceleration 0.2 m/s^2) on every
+    measured column, the support's motion included."""
+    from vibrofriction.synthetic import SensorNoise
+    noise = SensorNoise()
+    sigma = {"position_m": noise.position_m, "support_position_m": noise.position_m,
+             "velocity_m_per_s": noise.velocity_m_per_s,
+             "support_velocity_m_per_s": noise.velocity_m_per_s,
+             "acceleration_m_per_s2": noise.acceleration_m_per_s2,
+             "drive_force_N": noise.force_N, "friction_force_N": noise.force_N}
+    rng = np.random.default_rng(seed)
+    columns = {c: np.asarray(v, dtype=float) + sigma[c] * rng.standard_normal(len(v))
+               if c in sigma else v for c, v in dataset.columns.items()}
+    return Dataset(name=f"{dataset.name}-noisy", columns=columns, metadata=dataset.metadata)
+
+
+@pytest.mark.parametrize("law, columns", [("coulomb", None), ("dupont", POSITION_ONLY)],
+                         ids=["coulomb-all-columns", "dupont-position-only"])
+def test_a_noisy_record_round_trips_within_3_percent(law, columns) -> None:
+    """Realistic sensor noise on every column, inputs included (the support's motion is kept
+    to its vibration band): every law parameter within 3 %, nothing selected."""
+    record = _with_sensor_noise(_record(law, columns))
+    result = identify_by_simulation(record, law=law, declared=DECLARED.get(law, ()))
+    assert result.selected == []
+    for name in LAW_FIELDS[law]:
+        assert result.final.values[name] == pytest.approx(getattr(LAWS[law], name),
+                                                          rel=0.03), name
+
+
 def test_a_simulators_support_velocity_integrates_to_its_motion() -> None:
     """A simulator's velocity sample is the mean over its last step: at one step a sample its
     running sum is the table's motion exactly; a sensor's spline would lag by half a step."""
@@ -143,7 +173,11 @@ def test_cli_identify_by_simulation_writes_the_report(tmp_path, capsys) -> None:
     assert report["final"]["parameters"]["friction_coefficient"] == pytest.approx(0.21,
                                                                                   rel=0.01)
     assert "--set friction_coefficient=" in report["set"]
-    assert report["initial_state"] == {"velocity_m_per_s": 0.0, "velocity_from": "measured"}
+    assert report["initial_state"]["velocity_from"] == "fitted"  # from the measured sample
+    assert abs(report["initial_state"]["velocity_m_per_s"]) < 1e-3 * \
+        RIG.vibration_velocity_amplitude_m_per_s
+    error = report["final"]["standard_errors"]["friction_coefficient"]
+    assert 0 <= error < 1e-3 * 0.21  # a noise-free record pins the level
     assert (out / "fit.png").stat().st_size > 1000
     assert "identified by simulation" in capsys.readouterr().out
 

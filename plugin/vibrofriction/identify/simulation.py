@@ -140,6 +140,9 @@ class SimIdentification:
     simulations: int = 0
     dropped: dict[str, str] = field(default_factory=dict)  # effect -> why (backward step)
     seconds: float = 0.0
+    # standard error of each fitted value of the final model (same units), from the
+    # Jacobian at the optimum; None where the information matrix is singular there
+    standard_errors: dict[str, float | None] = field(default_factory=dict)
     # machine records: the benchmark-defined errors of the closed-loop simulation, per model
     # ("baseline", "final") and record ("train", then each held-out record's name)
     closed_loop: dict[str, dict[str, dict[str, float]]] | None = None
@@ -248,6 +251,29 @@ class SimulationProblem:
             steps.append(h)
         columns = self.residuals(model, shifted)
         return np.column_stack([(r - r0) / h for r, h in zip(columns, steps)])
+
+    def standard_errors(self, fit: SimFit) -> dict[str, float | None]:
+        """Standard error of each fitted value: the Gauss-Newton covariance
+        s^2 (J^T J)^-1 in the internal coordinates, s^2 the weighted residual variance scaled
+        by n / n_eff (a correlated residual carries less information than its sample count),
+        mapped to each value by its coordinate's derivative. Values of a sine/cosine pair
+        (ripple, modulation) are left out: their amplitude and phase are not coordinates."""
+        jacobian = self.jacobian(fit.model, fit.q, fit.residual)
+        n, k = len(fit.residual), fit.k
+        variance = fit.rss / max(n - k, 1) * n / max(fit.n_eff, k + 1.0)
+        information = jacobian.T @ jacobian
+        out: dict[str, float | None] = {}
+        try:
+            covariance = variance * np.linalg.inv(information)
+        except np.linalg.LinAlgError:
+            return {p.name: None for p in fit.model.params if p.name in fit.values}
+        for j, p in enumerate(fit.model.params):
+            if p.name not in fit.values:
+                continue
+            slope = fit.values[p.name] if p.log else p.scale  # d value / d q
+            sd = math.sqrt(covariance[j, j]) if covariance[j, j] >= 0 else math.nan
+            out[p.name] = abs(slope) * sd if math.isfinite(sd) else None
+        return out
 
     def result(self, model: Model, q: np.ndarray, nfev: int = 0) -> SimFit:
         values = model.values(q)
@@ -530,6 +556,10 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
                 dropped[earlier] = f"dropped in round {index}: keeping it, dBIC {keep_dbic:.1f}"
                 say(f"round {index}: dropped {earlier} (keeping it: dBIC {keep_dbic:.1f})")
     say("selected: " + (", ".join(selected) if selected else "nothing"))
+    errors = problem.standard_errors(current)
+    say("final: " + ", ".join(f"{n} {current.values[n]:.6g}" +
+                              (f" +- {e:.2g}" if e is not None else "")
+                              for n, e in errors.items()))
     peaks = _residual_peaks(problem, current)
     closed_loop = None
     if hasattr(replay, "scene"):
@@ -546,7 +576,7 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
                   "bic_threshold": bic_threshold, "fit_mass": fit_mass,
                   "noise_sd": dict(problem.noise)},
         simulations=problem.simulations, seconds=time.monotonic() - started,
-        closed_loop=closed_loop)
+        standard_errors=errors, closed_loop=closed_loop)
 
 
 def _closed_loop_errors(problem: SimulationProblem, fit: SimFit) -> dict[str, dict]:

@@ -68,7 +68,9 @@ def report_json(result: SimIdentification) -> dict[str, Any]:
         "baseline": block(result.baseline),
         "candidates": candidates,
         "selected_effects": list(result.selected),
-        "final": block(result.final),
+        "final": {**block(result.final),
+                  "standard_errors": {k: _finite(v) if v is not None else None
+                                      for k, v in result.standard_errors.items()}},
         "residual_peaks_Hz": list(result.residual_peaks_Hz),
         "skipped": dict(result.skipped),
         "settings": {**result.settings, "simulations": result.simulations,
@@ -216,10 +218,19 @@ def report_markdown(result: SimIdentification) -> str:
         lines.append(f"| – | {effect} | – | – | – | {why} |")
     for effect, why in r.skipped.items():
         lines.append(f"| – | {effect} | – | – | – | not a candidate: {why} |")
-    lines += ["", "## Final model", "", "| parameter | value |", "|---|---|"]
+    lines += ["", "## Final model", "",
+              "| parameter | value | standard error (fitted values) |", "|---|---|---|"]
     for name, value in parameters(r, r.final).items():
         if value is not None:
-            lines.append(f"| `{name}` | {value:.9g} |")
+            error = r.standard_errors.get(name)
+            lines.append(f"| `{name}` | {value:.9g} | " +
+                         (f"{error:.2g} ({100 * error / abs(value):.2g} %)"
+                          if error is not None and value else
+                          "not identifiable here" if name in r.standard_errors else "")
+                         + " |")
+    lines += ["", "Standard errors: Gauss-Newton, s^2 (J^T J)^-1 at the optimum with the "
+              "residual variance scaled by the sample count over the effective one; they "
+              "describe the record's noise, not a model that is wrong."]
     lines += ["", "Residual peaks (Hz, " + r.primary + "): " +
               (", ".join(f"{f:.6g}" for f in r.residual_peaks_Hz) or "none"), "",
               *(["The fitted scene is `fitted_model.xml` (load it with "
