@@ -85,6 +85,10 @@ CASES = [
     (["reproduce", "--quick", "--out", "."], "holds the current folder"),
     (["compare-builtin", "--quick", "--out", "a_folder"],
      "not an earlier output (no builtin.json)"),
+    (["compare-builtin", "--quick", "--out", "a_run"], "holds claims.json, the output of "
+     "vibrofriction reproduce"),
+    (["reproduce", "--quick", "--out", "a_run", "--json", "a_run/summary.json"],
+     "--json a_run/summary.json is inside --out a_run"),
     # too many steps: the parameter values that made the default duration or timestep
     (["simulate", "--set", "normal_force_N=1e9"],
      "the default duration 800000 s (two loadings of the drive spring to breakaway"),
@@ -119,6 +123,9 @@ def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, monkeypatch, 
     (tmp_path / "a_folder").mkdir()
     (tmp_path / "a_folder" / "keep.txt").write_text("keep")
     (tmp_path / "a_file").write_text("keep")
+    (tmp_path / "a_run").mkdir()  # an earlier reproduce run: it holds builtin.json too
+    for name in ("claims.json", "builtin.json", "summary.md"):
+        (tmp_path / "a_run" / name).write_text("{}")
     before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
     code = cli.main(argv)
     err = capsys.readouterr().err
@@ -127,7 +134,7 @@ def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, monkeypatch, 
     assert words in err and "np.float64" not in err and ".tmp" not in err, err
     after = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
     assert after == before  # nothing written, nothing existing changed
-    assert sorted(p.name for p in tmp_path.iterdir() if p.is_dir()) == ["a_folder"]
+    assert sorted(p.name for p in tmp_path.iterdir() if p.is_dir()) == ["a_folder", "a_run"]
 
 
 def test_a_held_body_on_a_moving_support_and_an_absolute_clock_are_accepted():

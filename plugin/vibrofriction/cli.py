@@ -112,7 +112,13 @@ def check_outputs(args: argparse.Namespace) -> None:
     out = getattr(args, "out", None)
     if out is not None and args.command != "convert":
         check_output_folder(out, "--out")
-        check_writable(out, "--out", inside=args.command != "identify")
+        check_writable(out, "--out")  # (the folder is replaced: its parent takes the new one)
+        json_path = getattr(args, "json_path", None)
+        if json_path is not None:
+            folder = Path(os.path.abspath(out))
+            if folder in Path(os.path.abspath(json_path)).parents:
+                raise UsageError(f"--json {json_path} is inside --out {out}, which is "
+                                 "replaced as a whole; write it outside")
         out = None
     for option, path in (("--csv", getattr(args, "csv_path", None)), ("--out", out)):
         if path is not None:
@@ -144,10 +150,16 @@ def check_output_folder(path: Path | None, option: str) -> None:
             raise UsageError(f"{option} {path}: {candidate} is a file; name a folder")
 
 
-def check_replaceable_folder(path: Path, option: str, marker: str) -> None:
+def check_replaceable_folder(path: Path, option: str, marker: str,
+                             foreign: dict[str, str] | None = None) -> None:
     """UsageError unless ``path`` may be replaced as a whole: absent, empty, or an earlier
-    output of the same command (it holds ``marker``), and not holding the current folder."""
+    output of the same command (it holds ``marker`` and no file of ``foreign``: file -> the
+    command that writes it), and not holding the current folder."""
     folder = Path(os.path.abspath(path))
+    for name, command in (foreign or {}).items():
+        if (folder / name).is_file():
+            raise UsageError(f"{option} {path} holds {name}, the output of {command}, and "
+                             "would be replaced as a whole; name another folder")
     cwd = Path(os.path.abspath(Path.cwd()))
     if cwd == folder or folder in cwd.parents:
         raise UsageError(f"{option} {path} holds the current folder and would be replaced as "

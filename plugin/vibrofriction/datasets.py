@@ -332,7 +332,8 @@ def check_sample_interval(time_s: np.ndarray, where: str, row_label: RowLabel,
                           name: str = "time_s") -> None:
     """Raise at the first sample closer than MIN_SAMPLE_INTERVAL_S to the previous one."""
     steps = np.diff(time_s)
-    bad = np.flatnonzero((steps > 0) & (steps < MIN_SAMPLE_INTERVAL_S))
+    # (with a relative tolerance: t = k * 1e-9 rounds some steps a few ulps below 1e-9)
+    bad = np.flatnonzero((steps > 0) & (steps < MIN_SAMPLE_INTERVAL_S * (1 - 1e-6)))
     if bad.size:
         index = int(bad[0]) + 1
         raise DatasetError(f"{where}: {row_label(index)}, column '{name}': "
@@ -565,11 +566,16 @@ class _Outputs:
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give a normal file's mode
 
     def folder(self, target: Path, write: Callable[[Path], None]) -> None:
-        tmp = Path(tempfile.mkdtemp(dir=self.folder_of(target), prefix=f".{target.name}.",
-                                    suffix=".tmp"))
-        self.staged.append((tmp, target))
-        os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700; give a normal folder's mode
-        write(tmp)
+        def make() -> Path:
+            made = Path(tempfile.mkdtemp(dir=self.folder_of(target), prefix=f".{target.name}.",
+                                         suffix=".tmp"))
+            self.staged.append((made, target))
+            os.chmod(made, 0o777 & ~_umask())  # mkdtemp makes 0700; a normal folder's mode
+            return made
+
+        # only making the folder is a write error of the target: an OSError of the work
+        # inside (a missing input, a refused connection) is reported as itself
+        write(_on(target, make))
 
     def commit(self) -> None:
         """Every target checked first; then each old one renamed aside and the new one renamed
@@ -649,7 +655,7 @@ def stage_folder(target: str | os.PathLike, write: Callable[[Path], None]) -> Pa
     a whole (inside :func:`all_or_nothing`: when the block ends)."""
     target = Path(os.path.abspath(target))
     with all_or_nothing():
-        _on(target, _OUTPUTS.get().folder, target, write)
+        _OUTPUTS.get().folder(target, write)
     return target
 
 

@@ -63,7 +63,8 @@ def run(args: argparse.Namespace) -> int:
         cmp_changes["ladder_steps"] = steps
     from dataclasses import replace
     cmp_config = replace(cmp_config, **cmp_changes)
-    check_replaceable_folder(args.out, "--out", "builtin.json")
+    check_replaceable_folder(args.out, "--out", "builtin.json",
+                             foreign={"claims.json": "vibrofriction reproduce"})
     log = StageLog(1, quiet=args.quiet)
     log.stage(f"{len(needed)} variants, ladder {list(cmp_config.ladder_steps)} steps per period")
     result = builtin.compare(config, cmp_config, progress=log.progress)

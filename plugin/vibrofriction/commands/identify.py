@@ -146,10 +146,8 @@ def _check_out(out: Path, args: argparse.Namespace) -> None:
     check_writable(out, "--out")
     folder = Path(os.path.abspath(out))
     check_replaceable_folder(out, "--out", "report.json")
-    inside = [Path(os.path.abspath(p)) for p in (args.data, *args.validate,
-                                                 *([args.json_path] if args.json_path else []))]
-    for path, what in zip(inside, ["DATA", *["--validate DATA"] * len(args.validate),
-                                   "--json FILE"]):
+    inside = [Path(os.path.abspath(p)) for p in (args.data, *args.validate)]
+    for path, what in zip(inside, ["DATA", *["--validate DATA"] * len(args.validate)]):
         if path == folder or folder in path.parents:
             raise UsageError(f"--out {out} holds {what} ({path}) and would be replaced as a "
                              "whole; name another folder")

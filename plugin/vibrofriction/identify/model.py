@@ -119,7 +119,7 @@ def parameter_table(law: str, effects: Sequence[str], fit_mass: bool,
         "sensor_lag_s": Param("sensor_lag_s", 0.0, 1e4 * scales.dt_s, scales.dt_s),
         "force_offset_N": Param("force_offset_N", -1e3 * f, 1e3 * f, 0.1 * f),
         "mass_kg": Param("mass_kg", 1e-9, 1e9, 1.0),
-        # the replayed body's velocity at the first sample, where the record does not measure it
+        # the replayed body's velocity at the first sample (a nuisance of the training record)
         "initial_velocity_m_per_s": Param("initial_velocity_m_per_s", -1e3 * v, 1e3 * v, v),
     }
     # Within the vocabulary's limits (params.LIMITS): a fit never proposes a value the
@@ -178,7 +178,7 @@ class Model:
     params: tuple[Param, ...]
     base: FrictionParameters = field(default_factory=FrictionParameters)
     # initial-state values fitted with the parameters (a nuisance, not part of the model
-    # users simulate): ``initial_velocity_m_per_s`` where the record does not measure it
+    # users simulate): ``initial_velocity_m_per_s`` on a rig record
     state: tuple[str, ...] = ()
 
     @classmethod

@@ -345,8 +345,12 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
         if vibrating:
             # A displacement sensor's noise passes through a stiff contact as friction noise
             # (1 nm at 60 N/um: 0.06 N): kept to the vibration band and the slow motion.
-            smooth = vibration_band(support_position, sample_dt, frequency)
-            smooth += slow_part(support_position - smooth, sample_dt, frequency)
+            # (a straight line out first: the band's end extensions are harmonics only, and
+            # an offset or a drift would enter them as a step)
+            trend = np.polyval(np.polyfit(t - t[0], support_position, 1), t - t[0])
+            band = vibration_band(support_position - trend, sample_dt, frequency)
+            smooth = trend + band + slow_part(support_position - trend - band, sample_dt,
+                                              frequency)
             if broadband_noise_sd(support_position, smooth) > \
                     NOISE_FLOOR_OF_RANGE * float(np.ptp(support_position)):
                 support_position = smooth

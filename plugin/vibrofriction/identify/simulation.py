@@ -263,16 +263,17 @@ class SimulationProblem:
         variance = fit.rss / max(n - k, 1) * n / max(fit.n_eff, k + 1.0)
         information = jacobian.T @ jacobian
         out: dict[str, float | None] = {}
-        try:
-            covariance = variance * np.linalg.inv(information)
-        except np.linalg.LinAlgError:
-            return {p.name: None for p in fit.model.params if p.name in fit.values}
+        # a direction the record does not inform (condition beyond 1e12): no error, not a
+        # huge one
+        covariance = variance * np.linalg.pinv(information, rcond=1e-12, hermitian=True)
+        informed = np.linalg.svd(jacobian, compute_uv=False)
+        rank_full = informed.size == k and informed[-1] > 1e-6 * informed[0]
         for j, p in enumerate(fit.model.params):
             if p.name not in fit.values:
                 continue
             slope = fit.values[p.name] if p.log else p.scale  # d value / d q
             sd = math.sqrt(covariance[j, j]) if covariance[j, j] >= 0 else math.nan
-            out[p.name] = abs(slope) * sd if math.isfinite(sd) else None
+            out[p.name] = abs(slope) * sd if math.isfinite(sd) and rank_full else None
         return out
 
     def result(self, model: Model, q: np.ndarray, nfev: int = 0) -> SimFit:

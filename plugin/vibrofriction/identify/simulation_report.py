@@ -88,11 +88,13 @@ def initial_state(result: SimIdentification) -> dict[str, Any]:
     fitted with the parameters (a nuisance of the training record, not part of the scene)."""
     replay = result.train
     if "initial_velocity_m_per_s" in result.final.values:
+        error = result.standard_errors.get("initial_velocity_m_per_s")
         return {"velocity_m_per_s": _finite(result.final.values["initial_velocity_m_per_s"]),
-                "velocity_from": "fitted"}
-    source = "measured" if "velocity_m_per_s" in replay.measured else "smoothing estimate"
+                "velocity_from": "fitted",
+                "velocity_standard_error": _finite(error) if error is not None else None}
+    # (a machine replay starts from a smoothing estimate of its measured position)
     return {"velocity_m_per_s": _finite(replay.initial_velocity_m_per_s),
-            "velocity_from": source}
+            "velocity_from": "smoothing estimate"}
 
 
 def _initial_velocity_text(result: SimIdentification) -> str:
@@ -223,11 +225,14 @@ def report_markdown(result: SimIdentification) -> str:
     for name, value in parameters(r, r.final).items():
         if value is not None:
             error = r.standard_errors.get(name)
-            lines.append(f"| `{name}` | {value:.9g} | " +
-                         (f"{error:.2g} ({100 * error / abs(value):.2g} %)"
-                          if error is not None and value else
-                          "not identifiable here" if name in r.standard_errors else "")
-                         + " |")
+            if error is None:
+                cell = "not identifiable here" if name in r.standard_errors else ""
+            else:
+                cell = f"{error:.2g}" + (f" ({100 * error / abs(value):.2g} %)" if value
+                                         else "")
+                if name in r.final.at_bound:
+                    cell += "; at its bound"
+            lines.append(f"| `{name}` | {value:.9g} | {cell} |")
     lines += ["", "Standard errors: Gauss-Newton, s^2 (J^T J)^-1 at the optimum with the "
               "residual variance scaled by the sample count over the effective one; they "
               "describe the record's noise, not a model that is wrong."]
