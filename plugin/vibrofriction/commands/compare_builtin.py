@@ -20,8 +20,12 @@ HELP = ("the paper's rig with MuJoCo's own friction (joint frictionloss, box-on-
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--out", type=Path, default=Path("vibrofriction-results"),
-                        metavar="DIR", help="output folder (default ./vibrofriction-results)")
+    parser.add_argument("--out", type=Path, default=Path("vibrofriction-builtin"),
+                        metavar="DIR",
+                        help="output folder (default ./vibrofriction-builtin: reproduce's "
+                             "folder holds its own comparison); written beside it and put in "
+                             "place at the end, so an existing DIR (empty or an earlier "
+                             "comparison: it holds builtin.json) is replaced as a whole")
     parser.add_argument("--quick", action="store_true",
                         help="short timestep ladder and master grid")
     parser.add_argument("--variants", default=",".join(builtin.VARIANTS), metavar="A,B,...",
