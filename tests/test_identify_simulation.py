@@ -119,29 +119,13 @@ def test_position_only_record_round_trip() -> None:
     assert abs(result.final.values["initial_velocity_m_per_s"]) < 1e-3 * RIG.vibration_velocity_amplitude_m_per_s
 
 
-def _with_sensor_noise(dataset: Dataset, seed: int = 0) -> Dataset:
-    """The record as sensors would give it: white noise of synthetic.SensorNoise's sizes
-    (force 0.05 N, velocity 20 um/s, position 1 nm, acceleration 0.2 m/s^2) on every
-    measured column, the support's motion included."""
-    from vibrofriction.synthetic import SensorNoise
-    noise = SensorNoise()
-    sigma = {"position_m": noise.position_m, "support_position_m": noise.position_m,
-             "velocity_m_per_s": noise.velocity_m_per_s,
-             "support_velocity_m_per_s": noise.velocity_m_per_s,
-             "acceleration_m_per_s2": noise.acceleration_m_per_s2,
-             "drive_force_N": noise.force_N, "friction_force_N": noise.force_N}
-    rng = np.random.default_rng(seed)
-    columns = {c: np.asarray(v, dtype=float) + sigma[c] * rng.standard_normal(len(v))
-               if c in sigma else v for c, v in dataset.columns.items()}
-    return Dataset(name=f"{dataset.name}-noisy", columns=columns, metadata=dataset.metadata)
-
-
 @pytest.mark.parametrize("law, columns", [("coulomb", None), ("dupont", POSITION_ONLY)],
                          ids=["coulomb-all-columns", "dupont-position-only"])
 def test_a_noisy_record_round_trips_within_3_percent(law, columns) -> None:
     """Realistic sensor noise on every column, inputs included (the support's motion is kept
     to its vibration band): every law parameter within 3 %, nothing selected."""
-    record = _with_sensor_noise(_record(law, columns))
+    from vibrofriction.synthetic import with_sensor_noise
+    record = with_sensor_noise(_record(law, columns))
     result = identify_by_simulation(record, law=law, declared=DECLARED.get(law, ()))
     assert result.selected == []
     for name in LAW_FIELDS[law]:

@@ -202,6 +202,22 @@ def generate(scenario: Scenario, name: str = "synthetic", description: str = "")
     return Dataset(name=name, columns=columns, metadata=metadata)
 
 
+def with_sensor_noise(dataset: Dataset, noise: SensorNoise = SensorNoise(),
+                      seed: int = 0) -> Dataset:
+    """``dataset`` as sensors would give it: white noise of ``noise``'s sizes on every
+    measured column, the support's motion included (e.g. a noise-free record of
+    ``vibrofriction simulate --csv``)."""
+    sigma = {"position_m": noise.position_m, "support_position_m": noise.position_m,
+             "velocity_m_per_s": noise.velocity_m_per_s,
+             "support_velocity_m_per_s": noise.velocity_m_per_s,
+             "acceleration_m_per_s2": noise.acceleration_m_per_s2,
+             "drive_force_N": noise.force_N, "friction_force_N": noise.force_N}
+    rng = np.random.default_rng(seed)
+    columns = {c: np.asarray(v, dtype=float) + sigma[c] * rng.standard_normal(len(v))
+               if c in sigma else v for c, v in dataset.columns.items()}
+    return Dataset(name=f"{dataset.name}-noisy", columns=columns, metadata=dataset.metadata)
+
+
 def _every(ref, step: int):
     """The reference result at every ``step``-th sample."""
     arrays = {f.name: getattr(ref, f.name)[::step] for f in fields(ref)
@@ -287,6 +303,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 __all__ = ["BASE_RIG", "BASE_FRICTION", "EFFECTS", "DRIVE_FORCE_EFFECTS", "SensorNoise",
+           "with_sensor_noise",
            "LAB_COLUMNS", "lab_scenario", "lab_record",
            "PeriodicDisturbance", "Scenario", "with_effect", "generate", "main"]
 
