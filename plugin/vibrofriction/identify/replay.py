@@ -351,9 +351,7 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
             band = vibration_band(support_position - trend, sample_dt, frequency)
             smooth = trend + band + slow_part(support_position - trend - band, sample_dt,
                                               frequency)
-            if broadband_noise_sd(support_position, smooth) > \
-                    NOISE_FLOOR_OF_RANGE * float(np.ptp(support_position)):
-                support_position = smooth
+            support_position = _filtered_if_noisy(support_position, smooth)
         table = make_interp_spline(t, support_position, k=3)(step_ends, extrapolate=True)
     elif "support_velocity_m_per_s" in columns:
         if vibrating:
@@ -361,10 +359,8 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
             # the contact like a real dither (20 um/s at 100 kHz makes a LuGre slider creep by
             # ~10 nm in 20 ms) and its integral would drift as a random walk. A velocity with
             # no such noise is kept whole (the band would smear an abrupt start).
-            band = vibration_band(support_velocity, sample_dt, frequency)
-            if broadband_noise_sd(support_velocity, band) > \
-                    NOISE_FLOOR_OF_RANGE * float(np.ptp(support_velocity)):
-                support_velocity = band
+            support_velocity = _filtered_if_noisy(
+                support_velocity, vibration_band(support_velocity, sample_dt, frequency))
         support_position, table = support_displacement(
             t, support_velocity, step_ends, meta.simulation_timestep_s)
     else:
@@ -428,16 +424,29 @@ def substeps_of_record(dataset: Dataset, sample_dt: float,
 def slow_part(values: np.ndarray, dt: float, frequency_Hz: float) -> np.ndarray:
     """``values`` low-passed (zero phase) at ``ENVELOPE_BANDWIDTH`` of the vibration frequency:
     a support's motion apart from its vibration (its rest position, a slow drift)."""
-    sos = butter(4, ENVELOPE_BANDWIDTH * frequency_Hz, btype="lowpass", fs=1.0 / dt,
-                 output="sos")
-    return sosfiltfilt(sos, np.asarray(values, dtype=float))
+    return sosfiltfilt(_envelope_lowpass(dt, frequency_Hz), np.asarray(values, dtype=float))
 
 
-def broadband_noise_sd(velocity: np.ndarray, band: np.ndarray) -> float:
-    """Robust sd of what the vibration band removes from a measured velocity (its sensor's
+def _envelope_lowpass(dt: float, frequency_Hz: float) -> np.ndarray:
+    """The zero-phase low-pass (second-order sections) at ``ENVELOPE_BANDWIDTH`` of the
+    vibration frequency that the band's envelopes and a support's slow motion go through."""
+    return butter(4, ENVELOPE_BANDWIDTH * frequency_Hz, btype="lowpass", fs=1.0 / dt,
+                  output="sos")
+
+
+def broadband_noise_sd(measured: np.ndarray, filtered: np.ndarray) -> float:
+    """Robust sd of what a filter removes from a measured support motion (its sensor's
     broadband noise; a few samples at an abrupt start do not count)."""
-    removed = np.asarray(velocity, dtype=float) - band
+    removed = np.asarray(measured, dtype=float) - filtered
     return 1.4826 * float(np.median(np.abs(removed - np.median(removed))))
+
+
+def _filtered_if_noisy(measured: np.ndarray, filtered: np.ndarray) -> np.ndarray:
+    """``filtered`` where the sensor's broadband noise is above ``NOISE_FLOOR_OF_RANGE`` of
+    the signal's range, else ``measured`` as it is (a filter would smear an abrupt start)."""
+    noisy = broadband_noise_sd(measured, filtered) > \
+        NOISE_FLOOR_OF_RANGE * float(np.ptp(measured))
+    return filtered if noisy else np.asarray(measured, dtype=float)
 
 
 def support_displacement(t: np.ndarray, velocity: np.ndarray, step_ends: np.ndarray,
@@ -486,8 +495,7 @@ def vibration_band(velocity: np.ndarray, dt: float, frequency_Hz: float) -> np.n
         inside = t[pad:pad + n][edge]
         coef, *_ = np.linalg.lstsq(basis(inside), velocity[edge], rcond=None)
         extended[outside] = basis(t[outside]) @ coef
-    sos = butter(4, ENVELOPE_BANDWIDTH * frequency_Hz, btype="lowpass", fs=1.0 / dt,
-                 output="sos")
+    sos = _envelope_lowpass(dt, frequency_Hz)
     out = np.zeros(len(t))
     for h in harmonics:
         carrier = np.exp(1j * 2 * math.pi * h * frequency_Hz * t)

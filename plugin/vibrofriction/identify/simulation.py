@@ -261,19 +261,18 @@ class SimulationProblem:
         jacobian = self.jacobian(fit.model, fit.q, fit.residual)
         n, k = len(fit.residual), fit.k
         variance = fit.rss / max(n - k, 1) * n / max(fit.n_eff, k + 1.0)
-        information = jacobian.T @ jacobian
+        names = [p.name for p in fit.model.params if p.name in fit.values]
+        # (J^T J)^-1 = V diag(1/s^2) V^T from J's singular values; a direction the record
+        # does not inform (s below 1e-6 of the largest) leaves every error undefined, not huge
+        _, singular, vt = np.linalg.svd(jacobian, full_matrices=False)
+        if singular.size < k or not singular[-1] > 1e-6 * singular[0]:
+            return {name: None for name in names}
+        sd_q = np.sqrt(variance * np.sum((vt / singular[:, None]) ** 2, axis=0))
         out: dict[str, float | None] = {}
-        # a direction the record does not inform (condition beyond 1e12): no error, not a
-        # huge one
-        covariance = variance * np.linalg.pinv(information, rcond=1e-12, hermitian=True)
-        informed = np.linalg.svd(jacobian, compute_uv=False)
-        rank_full = informed.size == k and informed[-1] > 1e-6 * informed[0]
-        for j, p in enumerate(fit.model.params):
-            if p.name not in fit.values:
-                continue
-            slope = fit.values[p.name] if p.log else p.scale  # d value / d q
-            sd = math.sqrt(covariance[j, j]) if covariance[j, j] >= 0 else math.nan
-            out[p.name] = abs(slope) * sd if math.isfinite(sd) and rank_full else None
+        for p, sd in zip(fit.model.params, sd_q):
+            if p.name in names:
+                slope = fit.values[p.name] if p.log else p.scale  # d value / d q
+                out[p.name] = abs(slope) * float(sd) if math.isfinite(sd) else None
         return out
 
     def result(self, model: Model, q: np.ndarray, nfev: int = 0) -> SimFit:
