@@ -7,11 +7,17 @@ vibration (20 ms: the spring loads, the slider breaks away and slides) and then 
 vibration at 4 kHz, v_a = 20 mm/s. Identified with LuGre and nothing declared, each of the 8
 vocabulary effects hidden alone is the one selection with its value within 5 %; a clean record
 selects nothing; a tone outside the vocabulary selects nothing and shows in the residual peaks.
+
+Each case is a whole identification (~2 min on 2 cores). The default run checks the clean
+record, the tone and the hardest effect (a Stribeck peak: stick-slip, more than one basin);
+``VIBROFRICTION_FULL_MATRIX=1`` runs all 8 effects (~20 min), as does
+``scripts/check_hidden_effects.py``, which prints the README's table and fails on a miss.
 """
 from __future__ import annotations
 
 import functools
 import math
+import os
 
 import pytest
 
@@ -30,6 +36,11 @@ VALUES = {
     "force_offset": ("force_offset_N",),
 }
 TONE = synthetic.PeriodicDisturbance(frequency_Hz=1234.0, amplitude_N=0.2, phase_rad=0.3)
+FULL_MATRIX = os.environ.get("VIBROFRICTION_FULL_MATRIX") == "1"
+DEFAULT_EFFECTS = ("stribeck",)
+_SKIPPED = pytest.mark.skip(reason="one of the full hidden-effect matrix: run it with "
+                                   "VIBROFRICTION_FULL_MATRIX=1 (~20 min) or "
+                                   "scripts/check_hidden_effects.py")
 
 
 @functools.lru_cache(maxsize=None)
@@ -39,7 +50,9 @@ def _identified(effect: str | None, tone: bool = False):
     return scenario, identify_by_simulation(record, law="lugre")
 
 
-@pytest.mark.parametrize("effect", list(VALUES))
+@pytest.mark.parametrize("effect", [
+    pytest.param(e, marks=() if FULL_MATRIX or e in DEFAULT_EFFECTS else _SKIPPED)
+    for e in VALUES])
 def test_a_hidden_effect_is_the_one_selection(effect) -> None:
     scenario, result = _identified(effect)
     assert result.train.channels == ("position_m", "drive_force_N")
