@@ -222,6 +222,7 @@ PLUGIN_ATTRIBUTES.update({
     "vibration_frequency_Hz": ("table_shaker", "frequency"),
     "vibration_velocity_amplitude_m_per_s": ("table_shaker", "velocity_amplitude"),
     "drive_velocity_m_per_s": ("drive_end_motion", "velocity"),
+    "vibration_from_s": ("table_shaker", "start_time"),
 })
 LIMITED = sorted(name for name in PLUGIN_ATTRIBUTES if name in LIMITS)
 
@@ -344,3 +345,37 @@ def test_a_second_copy_at_another_path_is_refused(tmp_path):
                          capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     assert "already registered" in out.stdout
+
+
+def _entry_point_installed() -> bool:
+    from importlib.metadata import entry_points
+    return any(ep.value == "vibrofriction._mujoco_plugins:register"
+               for ep in entry_points(group="mujoco.plugins"))
+
+
+@pytest.mark.skipif(not _entry_point_installed(),
+                    reason="the mujoco.plugins entry point is not installed (a source tree on "
+                           "PYTHONPATH); it is with pip install .")
+@pytest.mark.parametrize("first", ["mujoco", "vibrofriction"])
+def test_a_plain_import_mujoco_registers_the_plugins(first):
+    """The entry point in the group mujoco.plugins: a scene loads after `import mujoco` alone
+    (as in `python -m mujoco.viewer`), and importing vibrofriction first is no circular import
+    (warnings are errors in the child: a failed entry point would warn)."""
+    import subprocess
+    import sys
+
+    script = (
+        "import warnings\n"
+        "warnings.simplefilter('error')\n"
+        f"import {first}\n"
+        "import mujoco\n"
+        "model = mujoco.MjModel.from_xml_path(sys.argv[1])\n"
+        "assert model.nplugin > 0\n"
+        "import vibrofriction\n"
+        "vibrofriction.load()\n"
+        "print('loaded')\n")
+    out = subprocess.run([sys.executable, "-c", "import sys\n" + script,
+                          str(rig_module.scene_path("dahl"))],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "loaded"

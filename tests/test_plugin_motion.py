@@ -55,3 +55,36 @@ def test_drive_end_moves_at_the_drive_velocity():
     expected = rig.drive_stiffness_N_per_m * (rig.drive_velocity_m_per_s * run.time_s
                                               - run.slider_position_m)
     np.testing.assert_allclose(run.drive_force_N, expected, rtol=0, atol=1e-9)
+
+
+def test_a_vibration_started_later_follows_the_reference_build_up():
+    """vibration_from_s: the table stands still, then its amplitude builds up over
+    VIBRATION_RAMP_PERIODS periods exactly as the scipy reference moves it."""
+    from vibrofriction import reference
+    from vibrofriction.params import VIBRATION_RAMP_PERIODS
+
+    rig = RigParameters(vibration_velocity_amplitude_m_per_s=VA, vibration_from_s=0.004)
+    run = rig_module.simulate(rig, default_friction("dahl", rig), duration_s=0.012,
+                              timestep_s=1e-6, settle_time_s=0.011)
+    expected, _ = reference.support_motion(rig, run.time_s)
+    u0 = rig.vibration_amplitude_m
+    assert np.max(np.abs(run.support_position_m - expected)) < 1e-6 * u0
+    before = run.time_s < rig.vibration_from_s
+    # (still: the friction's reaction on the heavy table, corrected a step later, is ~1e-17 m)
+    assert np.max(np.abs(run.support_position_m[before])) < 1e-9 * u0
+    ramp_end = rig.vibration_from_s + VIBRATION_RAMP_PERIODS / rig.vibration_frequency_Hz
+    after = run.time_s > ramp_end
+    assert np.max(np.abs(run.support_position_m[after])) == pytest.approx(u0, rel=1e-3)
+
+
+@pytest.mark.parametrize("config, message", [
+    ({"start_time": "-1", "frequency": "4000", "velocity_amplitude": "1e-3"}, "start_time"),
+    ({"ramp_periods": "5"}, "set velocity_amplitude"),
+    ({"displacement_from_ctrl": "true", "start_time": "0.01"}, "displacement_from_ctrl"),
+])
+def test_a_bad_vibration_start_is_refused_by_name(config, message):
+    rig = RigParameters(vibration_velocity_amplitude_m_per_s=VA)
+    spec = rig_module.build_spec(rig, default_friction("dahl", rig))
+    rig_module.set_plugin_config(spec, "table_shaker", config)
+    with pytest.raises(ValueError, match=message):
+        spec.compile()

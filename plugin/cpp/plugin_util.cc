@@ -47,6 +47,8 @@ constexpr NamedRange kRanges[] = {
     {"velocity_amplitude", {0.0, 1e3}},     // vibration_velocity_amplitude_m_per_s
     {"velocity", {1e-12, 1e3}},             // drive_velocity_m_per_s
     {"phase", {0.0, 1e6}},                  // rad
+    {"start_time", {0.0, 1e9}},             // vibration_from_s
+    {"ramp_periods", {0.0, 1e9}},           // vibration periods
     // vibrofriction.lagged_tendon
     {"time_constant", {0.0, 1e3}},          // s, as sensor_lag_s
 };

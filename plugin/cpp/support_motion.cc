@@ -14,10 +14,12 @@ constexpr char kFrequency[] = "frequency";
 constexpr char kVelocityAmplitude[] = "velocity_amplitude";
 constexpr char kVelocity[] = "velocity";
 constexpr char kPhase[] = "phase";
+constexpr char kStartTime[] = "start_time";
+constexpr char kRampPeriods[] = "ramp_periods";
 constexpr char kUseCtrl[] = "use_ctrl";
 constexpr char kDisplacementFromCtrl[] = "displacement_from_ctrl";
 const char* const kAttributes[] = {kFrequency, kVelocityAmplitude, kVelocity, kPhase, kUseCtrl,
-                                   kDisplacementFromCtrl};
+                                   kDisplacementFromCtrl, kStartTime, kRampPeriods};
 constexpr char kPlugin[] = "vibrofriction.motion";
 constexpr double kPi = 3.14159265358979323846;
 
@@ -29,7 +31,9 @@ bool MotionConfig::FromModel(const mjModel* m, int instance, MotionConfig* confi
   if (!ReadNumber(m, instance, kPlugin, kFrequency, 0.0, &c.frequency) ||
       !ReadNumber(m, instance, kPlugin, kVelocityAmplitude, 0.0, &c.velocity_amplitude) ||
       !ReadNumber(m, instance, kPlugin, kVelocity, 0.0, &c.velocity) ||
-      !ReadNumber(m, instance, kPlugin, kPhase, 0.0, &c.phase)) {
+      !ReadNumber(m, instance, kPlugin, kPhase, 0.0, &c.phase) ||
+      !ReadNumber(m, instance, kPlugin, kStartTime, 0.0, &c.start_time) ||
+      !ReadNumber(m, instance, kPlugin, kRampPeriods, 0.0, &c.ramp_periods)) {
     return false;
   }
   if (!ReadBool(m, instance, kPlugin, kUseCtrl, false, &c.use_ctrl)) return false;
@@ -39,9 +43,10 @@ bool MotionConfig::FromModel(const mjModel* m, int instance, MotionConfig* confi
   }
   if (c.displacement_from_ctrl &&
       (c.frequency != 0 || c.velocity_amplitude != 0 || c.velocity != 0 || c.phase != 0 ||
-       c.use_ctrl)) {
+       c.use_ctrl || c.start_time != 0 || c.ramp_periods != 0)) {
     ConfigError("%s: displacement_from_ctrl=\"true\" takes the whole motion from ctrl; remove "
-                "frequency, velocity_amplitude, velocity, phase and use_ctrl", kPlugin);
+                "frequency, velocity_amplitude, velocity, phase, use_ctrl, start_time and "
+                "ramp_periods", kPlugin);
     return false;
   }
   if (c.frequency < 0) {
@@ -51,6 +56,17 @@ bool MotionConfig::FromModel(const mjModel* m, int instance, MotionConfig* confi
   if (c.velocity_amplitude < 0) {
     ConfigError("%s: attribute 'velocity_amplitude'=\"%g\" must be >= 0 (m/s)", kPlugin,
                 c.velocity_amplitude);
+    return false;
+  }
+  if (c.start_time < 0 || c.ramp_periods < 0) {
+    ConfigError("%s: attribute '%s'=\"%g\" must be >= 0", kPlugin,
+                c.start_time < 0 ? kStartTime : kRampPeriods,
+                c.start_time < 0 ? c.start_time : c.ramp_periods);
+    return false;
+  }
+  if ((c.start_time > 0 || c.ramp_periods > 0) && c.velocity_amplitude == 0) {
+    ConfigError("%s: start_time and ramp_periods shape a vibration; set velocity_amplitude "
+                "and frequency, or remove them", kPlugin);
     return false;
   }
   if (c.velocity_amplitude > 0 && c.frequency == 0) {
@@ -68,9 +84,14 @@ bool MotionConfig::FromModel(const mjModel* m, int instance, MotionConfig* confi
 
 double MotionConfig::Displacement(double t, double amplitude_scale) const {
   double s = velocity * t;
-  if (frequency > 0 && velocity_amplitude > 0) {
+  const double tau = t - start_time;  // time since the vibration started
+  if (frequency > 0 && velocity_amplitude > 0 && tau > 0) {
     const double omega = 2 * kPi * frequency;
-    s += amplitude_scale * velocity_amplitude / omega * (std::sin(omega * t + phase) - std::sin(phase));
+    const double ramp_time = ramp_periods / frequency;
+    const double envelope =
+        tau < ramp_time ? 0.5 * (1.0 - std::cos(kPi * tau / ramp_time)) : 1.0;
+    s += amplitude_scale * envelope * velocity_amplitude / omega *
+         (std::sin(omega * tau + phase) - std::sin(phase));
   }
   return s;
 }

@@ -8,6 +8,9 @@
 // after it (e.g. the friction element) act as a disturbance that it corrects one step later,
 // so give the driven body a large apparent mass (armature) to keep that error negligible; the
 // achieved motion is reported by ordinary joint sensors and checked by the tests.
+// start_time (s): the vibration is off before it (a stage without vibration first) and
+// ramp_periods its amplitude's build-up, (1 - cos(pi tau / T)) / 2 over T = ramp_periods / f
+// (a shaker's; tau = t - start_time), so that neither the velocity nor the acceleration jumps.
 // use_ctrl="true": ctrl scales the vibration amplitude (1 = as configured).
 // displacement_from_ctrl="true": ctrl is the displacement from the reference length to reach
 // at the end of the step (a measured motion replayed; identification drives the rig with it).
@@ -30,6 +33,8 @@ struct MotionConfig {
   double velocity_amplitude = 0.0;  // v_a (m/s or rad/s)
   double velocity = 0.0;            // constant drift velocity (m/s or rad/s)
   double phase = 0.0;               // (rad)
+  double start_time = 0.0;          // vibration off before it (s)
+  double ramp_periods = 0.0;        // amplitude build-up after start_time (vibration periods)
   bool use_ctrl = false;            // scale the amplitude by ctrl
   bool displacement_from_ctrl = false;  // ctrl = displacement at the end of the step (m or rad)
   int actuator = -1;

@@ -3,11 +3,11 @@ from __future__ import annotations
 
 import ctypes
 import threading
-from pathlib import Path
 
 import mujoco
 
-_LIBRARY_NAME = "libvibrofriction_plugin.so"
+from ._mujoco_plugins import library_path, version_mismatch
+
 _API_VERSION = 1
 _lock = threading.Lock()
 _library: ctypes.CDLL | None = None
@@ -15,11 +15,6 @@ _library: ctypes.CDLL | None = None
 
 class MujocoVersionMismatch(ImportError):
     """The installed MuJoCo differs from the one the plugin was compiled against."""
-
-
-def library_path() -> Path:
-    """Absolute path of the plugin library inside the installed package."""
-    return (Path(__file__).resolve().parent / _LIBRARY_NAME)
 
 
 def compiled_mujoco_version() -> str:
@@ -31,11 +26,9 @@ def check_mujoco_version(runtime: str | None = None, compiled: str | None = None
     """Raise MujocoVersionMismatch naming both versions when they differ."""
     runtime = runtime if runtime is not None else mujoco.mj_versionString()
     compiled = compiled if compiled is not None else compiled_mujoco_version()
-    if runtime != compiled:
-        raise MujocoVersionMismatch(
-            f"vibrofriction was compiled against MuJoCo {compiled} but MuJoCo {runtime} is "
-            f"installed; install mujoco=={compiled} or rebuild vibrofriction "
-            "(pip install --force-reinstall --no-cache-dir .)")
+    message = version_mismatch(compiled, runtime)
+    if message:
+        raise MujocoVersionMismatch(message)
 
 
 class _LawParameters(ctypes.Structure):

@@ -32,6 +32,9 @@ LAWS = ("coulomb", "dahl", "dupont", "lugre")
 # Paper values (Gutowski & Leus 2012, section 4): p = 0.046 N/mm^2 on S = 1200 mm^2.
 PAPER_NORMAL_FORCE_N = 0.046 * 1200.0
 PAPER_CONTACT_STIFFNESS_N_PER_M = 80.0e6
+# A vibration switched on during a run (``vibration_from_s``) builds up over this many periods
+# (amplitude (1 - cos(pi tau / T)) / 2, as a shaker's): neither velocity nor acceleration jumps.
+VIBRATION_RAMP_PERIODS = 20
 
 
 # The largest magnitude each value may take (SI): far beyond any friction rig or machine, so no
@@ -44,6 +47,7 @@ LIMITS: dict[str, tuple[float, float]] = {  # name -> (smallest nonzero magnitud
     "drive_velocity_m_per_s": (1e-12, 1e3),
     "vibration_frequency_Hz": (0.0, 1e7),
     "vibration_velocity_amplitude_m_per_s": (0.0, 1e3),
+    "vibration_from_s": (0.0, 1e9),
     "normal_force_N": (0.0, 1e9),
     "friction_coefficient": (0.0, 1e9),
     "contact_stiffness_N_per_m": (0.0, 1e18),
@@ -88,6 +92,9 @@ class RigParameters:
     vibration_frequency_Hz: float = 4000.0
     vibration_velocity_amplitude_m_per_s: float = 0.0
     normal_force_N: float = PAPER_NORMAL_FORCE_N
+    # > 0: the table stands still until then, and its vibration builds up over
+    # VIBRATION_RAMP_PERIODS periods from then on (a stage without vibration first)
+    vibration_from_s: float = 0.0
 
     @property
     def vibration_amplitude_m(self) -> float:
@@ -114,6 +121,8 @@ class RigParameters:
                  "vibration_velocity_amplitude_m_per_s",
                  self.vibration_velocity_amplitude_m_per_s, "must be >= 0")
         _require(self.normal_force_N >= 0, "normal_force_N", self.normal_force_N, "must be >= 0")
+        _require(self.vibration_from_s >= 0, "vibration_from_s", self.vibration_from_s,
+                 "must be >= 0 (s)")
         _require(self.drive_velocity_m_per_s != 0, "drive_velocity_m_per_s",
                  self.drive_velocity_m_per_s, "must be non-zero")
         return self
@@ -247,5 +256,5 @@ def default_friction(law: str, rig: RigParameters | None = None) -> FrictionPara
 __all__ = [
     "LAWS", "ParameterError", "RigParameters", "FrictionParameters", "apply_overrides",
     "as_dict", "default_friction", "lugre_default_bristle_damping", "PAPER_NORMAL_FORCE_N",
-    "PAPER_CONTACT_STIFFNESS_N_PER_M",
+    "PAPER_CONTACT_STIFFNESS_N_PER_M", "VIBRATION_RAMP_PERIODS",
 ]

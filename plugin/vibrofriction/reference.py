@@ -42,7 +42,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.signal import lfilter
 
-from .params import FrictionParameters, ParameterError, RigParameters
+from .params import VIBRATION_RAMP_PERIODS, FrictionParameters, ParameterError, RigParameters
 from .summary import RunSummary, summarize
 
 # LSODA switches between Adams (non-stiff) and BDF (stiff) by itself: the contact is mildly stiff
@@ -52,8 +52,6 @@ ODE_METHOD = "LSODA"
 STEPS_PER_PERIOD = 20
 # Width in w of the smoothing of sgn(w)|w|^alpha, alpha < 1, at saturation (F moves ~1e-6 F_c).
 DAHL_LAYER = 1e-6
-# A vibration switched on later (``vibration_from_s``) builds up over this many periods.
-VIBRATION_RAMP_PERIODS = 20
 # Consecutive zero-length Coulomb segments tolerated before declaring the event logic stuck.
 _MAX_EMPTY_SEGMENTS = 20
 
@@ -91,10 +89,11 @@ def simulate_reference(rig: RigParameters, friction: FrictionParameters, duratio
                        sample_dt_s: float = 1e-6, rtol: float = 1e-8,
                        atol: float | Sequence[float] | None = None,
                        t_start_s: float = 0.0,
-                       vibration_from_s: float = 0.0) -> ReferenceResult:
+                       vibration_from_s: float | None = None) -> ReferenceResult:
     """Integrate the rig from rest (x = x' = z = 0, drive spring unloaded at t = 0).
 
-    ``vibration_from_s`` > 0: the support stands still until then and vibrates from then on,
+    ``vibration_from_s`` (default: the rig's) > 0: the support stands still until then and
+    vibrates from then on,
     u = u0 r(t) sin(w (t - vibration_from_s)), r rising as (1 - cos)/2 over
     ``VIBRATION_RAMP_PERIODS`` periods (a stage without vibration first; state laws only).
 
@@ -106,6 +105,8 @@ def simulate_reference(rig: RigParameters, friction: FrictionParameters, duratio
     rig.validate()
     friction.validate()
     _check_times(duration_s, sample_dt_s, t_start_s, rtol)
+    if vibration_from_s is None:
+        vibration_from_s = rig.vibration_from_s
     if not (math.isfinite(vibration_from_s) and 0.0 <= vibration_from_s < duration_s):
         raise ParameterError(f"vibration_from_s={vibration_from_s!r} must lie in "
                              f"[0, duration_s={duration_s!r})")
@@ -496,9 +497,10 @@ def first_order_lag(signal: np.ndarray, dt_s: float, tau_s: float) -> np.ndarray
 
 
 def support_motion(rig: RigParameters, t_s: np.ndarray,
-                   vibration_from_s: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """The support's displacement and velocity at ``t_s``, as ``simulate_reference`` moves it."""
-    drive = _Rig(rig, vibration_from_s)
+                   vibration_from_s: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The support's displacement and velocity at ``t_s``, as ``simulate_reference`` moves it
+    (``vibration_from_s``: default the rig's)."""
+    drive = _Rig(rig, rig.vibration_from_s if vibration_from_s is None else vibration_from_s)
     motion = np.array([drive.support(t)[:2] for t in np.asarray(t_s, dtype=float).tolist()])
     return motion[:, 0], motion[:, 1]
 

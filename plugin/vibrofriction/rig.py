@@ -17,7 +17,8 @@ import numpy as np
 from mujoco import rollout as mj_rollout
 
 from ._native import load
-from .params import FrictionParameters, ParameterError, RigParameters, _plain
+from .params import (VIBRATION_RAMP_PERIODS, FrictionParameters, ParameterError, RigParameters,
+                     _plain)
 from .summary import RunSummary, summarize
 
 MJCF_DIR = Path(__file__).resolve().parent / "mjcf_models"
@@ -90,9 +91,12 @@ def build_spec(rig: RigParameters, friction: FrictionParameters,
     drive = spec.actuator("drive_spring")
     # Tendon length x - x_B, velocity xdot - v_d: F_d = -k_d (x - x_B) - h_d (xdot - v_d).
     drive.biasprm[:3] = [0.0, -rig.drive_stiffness_N_per_m, -rig.drive_damping_N_s_per_m]
-    set_plugin_config(spec, "table_shaker", {
-        "frequency": repr(float(rig.vibration_frequency_Hz)),
-        "velocity_amplitude": repr(float(rig.vibration_velocity_amplitude_m_per_s))})
+    shaker = {"frequency": repr(float(rig.vibration_frequency_Hz)),
+              "velocity_amplitude": repr(float(rig.vibration_velocity_amplitude_m_per_s))}
+    if rig.vibration_from_s > 0 and rig.vibration_velocity_amplitude_m_per_s > 0:
+        shaker.update(start_time=repr(float(rig.vibration_from_s)),
+                      ramp_periods=repr(float(VIBRATION_RAMP_PERIODS)))
+    set_plugin_config(spec, "table_shaker", shaker)
     set_plugin_config(spec, "drive_end_motion", {
         "velocity": repr(float(rig.drive_velocity_m_per_s))})
     set_plugin_config(spec, "friction", friction_config(rig, friction))
@@ -140,11 +144,14 @@ def default_times(rig: RigParameters, friction: FrictionParameters) -> tuple[flo
     """(duration_s, settle_time_s): loading to breakaway, transient, then an averaging window.
 
     The spring loads to mu F_N in t_load = mu F_N / (k_d v_d); the transient is given two
-    loadings plus 30 ms, and the mean is taken over the following 40 ms of whole periods.
+    loadings plus 30 ms, and the mean is taken over the following 40 ms of whole periods. A
+    vibration switched on later (``vibration_from_s``) adds its start and build-up.
     """
     static_force_N = friction.friction_coefficient * rig.normal_force_N * friction.static_ratio
     t_load_s = static_force_N / (rig.drive_stiffness_N_per_m * abs(rig.drive_velocity_m_per_s))
     settle_time_s = 2.0 * t_load_s + 0.03
+    if rig.vibration_from_s > 0 and rig.vibration_frequency_Hz > 0:
+        settle_time_s += rig.vibration_from_s + VIBRATION_RAMP_PERIODS / rig.vibration_frequency_Hz
     return settle_time_s + 0.04, settle_time_s
 
 
