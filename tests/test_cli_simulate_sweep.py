@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+import vibrofriction
 from vibrofriction.cli import main
 from vibrofriction.datasets import COLUMNS, MACHINE_INPUT_COLUMNS, read_dataset
 from vibrofriction.sweep import POINT_KEYS
@@ -169,6 +170,9 @@ def test_console_script_and_module_entry_point(tmp_path):
     missing = subprocess.run([sys.executable, "-m", "vibrofriction", "sweep"],
                              capture_output=True, text=True)
     assert missing.returncode == 2 and "--va" in missing.stderr
+    version = subprocess.run([sys.executable, "-m", "vibrofriction", "--version"],
+                             capture_output=True, text=True, check=True)
+    assert version.stdout.startswith(f"vibrofriction {vibrofriction.__version__}, MuJoCo ")
     script = Path(sys.executable).parent / "vibrofriction"
     if script.exists():
         out = tmp_path / "s.json"

@@ -185,6 +185,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="vibrofriction",
         description="Dynamic friction (Coulomb, Dahl, Dupont, LuGre) with vibrating supports "
                     "in MuJoCo.")
+    parser.add_argument("--version", action="version", version=version_line())
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, module_name in COMMANDS.items():
         try:
@@ -198,6 +199,16 @@ def build_parser() -> argparse.ArgumentParser:
         module.add_arguments(p)
         p.set_defaults(_run=module.run)
     return parser
+
+
+def version_line() -> str:
+    """vibrofriction's version, the MuJoCo its plugin library was built against and the one
+    installed (they must be equal: ``_native.check_mujoco_version``)."""
+    import mujoco
+
+    from . import __version__, _build_info
+    return (f"vibrofriction {__version__}, MuJoCo {mujoco.__version__} (plugin built against "
+            f"{_build_info.MUJOCO_VERSION})")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
