@@ -413,3 +413,55 @@ def test_fitted_values_never_leave_the_vocabulary_limits():
             if param.name in LIMITS:
                 assert abs(value) <= LIMITS[param.name][1], param.name
             assert param.lower <= value <= param.upper, param.name
+
+
+def test_a_users_scene_gives_back_a_joint_damping_it_names(tmp_path, capsys):
+    """vibrofriction:damping names a slide joint whose damping is fitted with the friction and
+    the mass (a named value of the scene, written into fitted_model.xml); the friction
+    element's viscous candidate, the same force, is then not selected."""
+    import xml.etree.ElementTree as ET
+    scene = tmp_path / "damped_block.xml"
+    scene.write_text(USER_SCENE.replace(
+        '<text name="vibrofriction:body" data="block"/>',
+        '<text name="vibrofriction:body" data="block"/>\n'
+        '    <text name="vibrofriction:damping" data="slide"/>'))
+    truth = {"mass_kg": 2.0, "friction_coefficient": 3.0, "joint_damping_N_s_per_m": 4.0}
+    t = np.arange(3000) * 1e-3
+    push = 5.0 * np.sin(2 * np.pi * 1.0 * t) + 1.0 * np.sin(2 * np.pi * 3.7 * t)
+    columns = {"time_s": t, "position_m": np.zeros_like(t), "drive_force_N": push}
+    meta = DatasetMetadata(model=str(scene), simulation_timestep_s=2.5e-4)
+    replay = prepare_replay(Dataset(name="b", columns=columns, metadata=meta))
+    assert replay.fitted_scene_values == ("joint_damping_N_s_per_m",)
+    friction = FrictionParameters(law="coulomb",
+                                  friction_coefficient=truth["friction_coefficient"])
+    with Replayer(replay) as runner:
+        out = runner.run([(replace(replay.rig, mass_kg=truth["mass_kg"]), friction, {},
+                           {"joint_damping_N_s_per_m": 4.0})])[0]
+    rng = np.random.default_rng(12)
+    columns["position_m"] = out["position_m"] + 1e-6 * rng.standard_normal(len(t))
+    path = tmp_path / "damped.csv"
+    write_dataset(Dataset(name="damped", columns=columns, metadata=DatasetMetadata(
+        simulation_timestep_s=2.5e-4)), path)
+    code = cli.main(["identify", str(path), "--model", str(scene), "--law", "coulomb",
+                     "--out", str(tmp_path / "out"), "--no-figures"])
+    assert code == 0, capsys.readouterr().err
+    report = json.loads((tmp_path / "out" / "report.json").read_text())
+    fitted = report["final"]["parameters"]
+    for name, value in truth.items():
+        assert fitted[name] == pytest.approx(value, rel=0.01), name
+    assert report["selected_effects"] == []
+    joint = ET.parse(tmp_path / "out" / "fitted_model.xml").find(".//joint[@name='slide']")
+    linear = float(joint.get("damping").split()[0])  # (MuJoCo 4: linear, then higher orders)
+    assert linear == pytest.approx(fitted["joint_damping_N_s_per_m"])
+
+
+def test_a_damping_that_names_no_slide_joint_is_refused(tmp_path):
+    from vibrofriction.identify.machine_replay import MachineScene
+    scene = tmp_path / "hinge.xml"
+    scene.write_text(USER_SCENE.replace(
+        '<text name="vibrofriction:body" data="block"/>',
+        '<text name="vibrofriction:body" data="block"/>\n'
+        '    <text name="vibrofriction:damping" data="turn"/>').replace(
+        '<inertial', '<joint name="turn" type="hinge" axis="0 0 1"/><inertial'))
+    with pytest.raises(InputError, match="'turn', which is not a slide joint"):
+        MachineScene.from_file(scene)

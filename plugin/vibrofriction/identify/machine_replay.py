@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Sequence
+from typing import Mapping, Sequence
 
 import mujoco
 import numpy as np
@@ -44,6 +44,7 @@ from .replay import (SampleGrid, contact_at_rest, full_state, noise_sd, substeps
 #   <custom>
 #     <text name="vibrofriction:joint" data="carriage"/>   joint whose state the record starts
 #     <text name="vibrofriction:body" data="carriage"/>    body whose mass is fitted
+#     <text name="vibrofriction:damping" data="carriage"/> slide joint whose damping is fitted
 #     <text name="vibrofriction:input:reference_position_m" data="motor"/>   column -> actuator ctrl
 #     <text name="vibrofriction:output:position_m" data="position"/>        column -> sensor
 #     <text name="vibrofriction:output:drive_force_N" data="motor_force + feedforward_force"/>
@@ -80,6 +81,7 @@ class MachineScene:
     friction_config: dict[str, str]  # the scene's own config of the friction element
     description: str
     bundled: bool = False  # one of BUNDLED (its benchmark's published figures apply)
+    damped_joint: str | None = None  # slide joint whose damping is fitted (optional)
 
     @classmethod
     def from_file(cls, path: Path, name: str | None = None) -> "MachineScene":
@@ -104,10 +106,11 @@ class MachineScene:
             return value
 
         for key in texts:
-            if key not in ("joint", "body", "description") and \
+            if key not in ("joint", "body", "damping", "description") and \
                     key.partition(":")[0] not in ("input", "output"):
                 raise InputError(f"model {where}: {TEXT_PREFIX}{key} is not a key of the mapping "
-                                 "(joint, body, description, input:COLUMN, output:COLUMN)")
+                                 "(joint, body, damping, description, input:COLUMN, "
+                                 "output:COLUMN)")
         for key in ("joint", "body"):
             if key not in texts:
                 raise InputError(
@@ -115,6 +118,13 @@ class MachineScene:
                     f"name=\"{TEXT_PREFIX}{key}\" data=\"NAME\"/></custom>")
         joint = named("joint", mujoco.mjtObj.mjOBJ_JOINT, texts["joint"])
         body = named("body", mujoco.mjtObj.mjOBJ_BODY, texts["body"])
+        damped = None
+        if "damping" in texts:
+            damped = named("damping", mujoco.mjtObj.mjOBJ_JOINT, texts["damping"])
+            if model.joint(damped).type[0] != mujoco.mjtJoint.mjJNT_SLIDE:
+                raise InputError(f"model {where}: {TEXT_PREFIX}damping names {damped!r}, which "
+                                 "is not a slide joint; only a slide joint's damping (N s/m) "
+                                 "is fitted")
         inputs, outputs = {}, {}
         for key, value in texts.items():
             kind, _, column = key.partition(":")
@@ -167,7 +177,7 @@ class MachineScene:
                    controller_input=controller_input, inputs=inputs, outputs=outputs,
                    friction_instance=instance, friction_config=config,
                    description=texts.get("description", spec.modelname or Path(path).stem),
-                   bundled=name in BUNDLED)
+                   bundled=name in BUNDLED, damped_joint=damped)
 
     @property
     def normal_load_given(self) -> bool:
@@ -250,19 +260,34 @@ class MachineReplay(SampleGrid):
     def sample_interval_s(self) -> float:
         return _sample_interval(self.time_s)
 
-    def model(self, rig: RigParameters, friction: FrictionParameters) -> mujoco.MjModel:
-        return self.spec(rig, friction).compile()
+    @property
+    def fitted_scene_values(self) -> tuple[str, ...]:
+        """Named values of the scene identification fits with the friction (its mapping's
+        ``damping`` joint)."""
+        return ("joint_damping_N_s_per_m",) if self.scene.damped_joint else ()
+
+    def model(self, rig: RigParameters, friction: FrictionParameters,
+              scene_values: Mapping[str, float] | None = None) -> mujoco.MjModel:
+        return self.spec(rig, friction, scene_values=scene_values).compile()
 
     def spec(self, rig: RigParameters, friction: FrictionParameters,
-             probes: bool = True) -> mujoco.MjSpec:
+             probes: bool = True, scene_values: Mapping[str, float] | None = None
+             ) -> mujoco.MjSpec:
         """The machine scene with these values (``probes``: with the sensors identification
-        reads; without, ``to_xml()`` writes the fitted scene as the user's, values changed)."""
+        reads; without, ``to_xml()`` writes the fitted scene as the user's, values changed;
+        ``scene_values``: its named values, e.g. ``joint_damping_N_s_per_m``)."""
         rig_module.load()
         friction.validate()
         scene = self.scene
         spec = mujoco.MjSpec.from_file(str(scene.path))
         spec.option.timestep = self.timestep_s
         spec.body(scene.body).mass = rig.mass_kg
+        damping = (scene_values or {}).get("joint_damping_N_s_per_m")
+        if damping is not None and scene.damped_joint:
+            joint = spec.joint(scene.damped_joint)
+            coefficients = np.array(joint.damping, dtype=float)  # (linear first)
+            coefficients[0] = damping
+            joint.damping = coefficients
         config = {**scene.friction_config, **rig_module.friction_config(rig, friction)}
         config["modulation_frequency"] = repr(float(
             friction.normal_force_modulation_frequency_Hz))

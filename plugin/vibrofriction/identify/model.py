@@ -87,8 +87,10 @@ class Scales:
 
 
 def parameter_table(law: str, effects: Sequence[str], fit_mass: bool,
-                    scales: Scales, state: Sequence[str] = ()) -> list[Param]:
-    """Internal coordinates for a law + effects (+ mass, + initial-state values)."""
+                    scales: Scales, state: Sequence[str] = (),
+                    scene: Sequence[str] = ()) -> list[Param]:
+    """Internal coordinates for a law + effects (+ mass, + a scene's named values,
+    + initial-state values)."""
     fn = scales.normal_force_N
     f, v = scales.force_N, scales.velocity_m_per_s
     mu = f / fn
@@ -119,6 +121,9 @@ def parameter_table(law: str, effects: Sequence[str], fit_mass: bool,
         "sensor_lag_s": Param("sensor_lag_s", 0.0, 1e4 * scales.dt_s, scales.dt_s),
         "force_offset_N": Param("force_offset_N", -1e3 * f, 1e3 * f, 0.1 * f),
         "mass_kg": Param("mass_kg", 1e-9, 1e9, 1.0),
+        # a scene's named value: the damping of the slide joint its mapping names
+        "joint_damping_N_s_per_m": Param("joint_damping_N_s_per_m", 0.0, 1e6 * f / v,
+                                         0.1 * f / v),
         # the replayed body's velocity at the first sample (a nuisance of the training record)
         "initial_velocity_m_per_s": Param("initial_velocity_m_per_s", -1e3 * v, 1e3 * v, v),
     }
@@ -139,6 +144,7 @@ def parameter_table(law: str, effects: Sequence[str], fit_mass: bool,
         names.extend(EFFECT_INTERNALS[effect])
     if fit_mass:
         names.append("mass_kg")
+    names.extend(scene)
     names.extend(state)
     return [table[name] for name in names]
 
@@ -180,15 +186,19 @@ class Model:
     # initial-state values fitted with the parameters (a nuisance, not part of the model
     # users simulate): ``initial_velocity_m_per_s`` on a rig record
     state: tuple[str, ...] = ()
+    # named values of a machine scene fitted with the parameters (part of the model users
+    # simulate: they are written into the fitted scene), e.g. ``joint_damping_N_s_per_m``
+    scene: tuple[str, ...] = ()
 
     @classmethod
     def build(cls, law: str, effects: Sequence[str], fit_mass: bool, scales: Scales,
-              base: FrictionParameters | None = None, state: Sequence[str] = ()) -> "Model":
+              base: FrictionParameters | None = None, state: Sequence[str] = (),
+              scene: Sequence[str] = ()) -> "Model":
         effects = tuple(e for e in EFFECTS if e in effects)
         base = base or FrictionParameters(law=law)
         return cls(law=law, effects=effects, fit_mass=fit_mass,
-                   params=tuple(parameter_table(law, effects, fit_mass, scales, state)),
-                   base=replace(base, law=law), state=tuple(state))
+                   params=tuple(parameter_table(law, effects, fit_mass, scales, state, scene)),
+                   base=replace(base, law=law), state=tuple(state), scene=tuple(scene))
 
     @property
     def names(self) -> list[str]:
@@ -228,7 +238,7 @@ class Model:
 
     def extended(self, effect: str, scales: Scales) -> "Model":
         return Model.build(self.law, (*self.effects, effect), self.fit_mass, scales, self.base,
-                           self.state)
+                           self.state, self.scene)
 
     # ------------------------------------------------------------------------------ predict
 

@@ -240,10 +240,13 @@ class Replayer:
     def run(self, cases: Sequence[tuple], extra: Sequence[str] = ()
             ) -> list[dict[str, np.ndarray]]:
         """Predicted channels at the record's samples, one dict per case: (RigParameters,
-        FrictionParameters[, initial-state values for ``initial_state``]) (``extra`` adds
-        unmeasured channels, e.g. friction_force_N and relative_position_m of a drive record)."""
+        FrictionParameters[, initial-state values for ``initial_state``[, a scene's named
+        values]]) (``extra`` adds unmeasured channels, e.g. friction_force_N and
+        relative_position_m of a drive record)."""
         replay = self.replay
-        models = [replay.model(case[0], case[1]) for case in cases]
+        models = [replay.model(case[0], case[1], *([case[3]] if len(case) > 3 and case[3]
+                                                   else []))
+                  for case in cases]
         rows = slice(0, replay.nstep, replay.substeps)
         names = list(replay.channels) + [c for c in extra if c not in replay.channels]
         out: list[dict[str, np.ndarray] | None] = [None] * len(models)

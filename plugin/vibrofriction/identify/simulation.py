@@ -166,6 +166,8 @@ class SimulationProblem:
         self.floor = 0.0
         # initial-state values fitted with the parameters (the training record's only)
         self.state: tuple[str, ...] = tuple(getattr(train, "estimated_state", ()))
+        # named values of the scene fitted with the parameters (a machine's joint damping)
+        self.scene: tuple[str, ...] = tuple(getattr(train, "fitted_scene_values", ()))
 
     def reweight(self, fit: SimFit) -> None:
         """Maximum-likelihood channel weights: each channel's sd becomes at least the rms of
@@ -191,7 +193,9 @@ class SimulationProblem:
 
     def case(self, model: Model, values: Mapping[str, float],
              replay: RigReplay | None = None
-             ) -> tuple[RigParameters, FrictionParameters, dict[str, float]]:
+             ) -> tuple[RigParameters, FrictionParameters, dict[str, float], dict[str, float]]:
+        """(rig, friction, initial-state values, the scene's named values) of one
+        simulation, as ``Replayer.run`` takes them."""
         replay = replay or self.train
         friction = model.friction_parameters(values)
         mass = values.get("mass_kg", replay.rig.mass_kg if replay.mass_known else
@@ -200,7 +204,7 @@ class SimulationProblem:
                       drive_damping_N_s_per_m=values.get("drive_damping_N_s_per_m", 0.0))
         initial = {n: values[n] for n in model.state if n in values} \
             if replay is self.train else {}
-        return rig, friction, initial
+        return rig, friction, initial, {n: values[n] for n in model.scene if n in values}
 
     def predict(self, model: Model, value_sets: Sequence[Mapping[str, float]],
                 extra: Sequence[str] = ()) -> list[dict[str, np.ndarray]]:
@@ -390,7 +394,7 @@ def _converged_timestep(problem: SimulationProblem, train: Dataset, law: str,
     declared = tuple(e for e in EFFECTS if e in declared)
     scales, starts = _start(problem, law, fit_mass, declared)
     model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law),
-                        problem.state)
+                        problem.state, problem.scene)
     case = problem.case(model, model.values(model.internal(starts[0])))
     steps = problem.train.substeps
     with Replayer(problem.train, problem.runner.threads) as runner:
@@ -431,7 +435,7 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
     declared = tuple(e for e in EFFECTS if e in declared and e not in skipped)
     scales, starts = scan or _start(problem, law, fit_mass, declared)
     model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law),
-                        problem.state)
+                        problem.state, problem.scene)
     say(f"baseline: fitting {model.k} parameters ({', '.join(model.names)}) from the "
         f"{len(starts)} best start(s) of a scan")
     # Several starts: a record that measures little of the contact (position and drive force
@@ -542,7 +546,8 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
         # modulation's mean) is dropped when the model without it is as good by the same test.
         for earlier in [e for e in selected[:-1] if e not in declared]:
             reduced = Model.build(law, [e for e in current.model.effects if e != earlier],
-                                  fit_mass, scales, current.model.base, current.model.state)
+                                  fit_mass, scales, current.model.base, current.model.state,
+                                  current.model.scene)
             start = {k: v for k, v in current.model.internal_values(current.q).items()
                      if k in reduced.names}
             without = problem.fit(reduced, start, BASELINE_EVALUATIONS)
@@ -633,7 +638,7 @@ def _start(problem: SimulationProblem, law: str, fit_mass: bool,
                     normal_force_N=normal, dt_s=dt,
                     travel_m=float(np.ptp(replay.measured.get("position_m", [0.0]))) or 1e-3)
     model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law),
-                        problem.state)
+                        problem.state, problem.scene)
 
     def start(lv: float, deflection: float | None, shape: Mapping[str, float]) -> dict:
         # (with a Stribeck curve the level scanned is its peak, mu F_N static_ratio)

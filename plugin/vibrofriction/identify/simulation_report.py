@@ -25,11 +25,13 @@ _UNITS = {"position_m": "m", "velocity_m_per_s": "m/s", "acceleration_m_per_s2":
 
 
 def parameters(result: SimIdentification, fit: SimFit) -> dict[str, float | None]:
-    """Every value of the fitted scene: friction attributes and the rig's values."""
+    """Every value of the fitted scene: friction attributes, the rig's values and a machine
+    scene's fitted named values."""
     rig, friction = _case(result, fit)
     out: dict[str, Any] = {k: v for k, v in dataclasses.asdict(friction).items() if k != "law"}
     out.update({"mass_kg": rig.mass_kg, "drive_damping_N_s_per_m": rig.drive_damping_N_s_per_m,
                 "normal_force_N": rig.normal_force_N})
+    out.update({n: fit.values[n] for n in fit.model.scene})
     return {k: _finite(v) for k, v in out.items()}
 
 
@@ -121,7 +123,8 @@ def _is_machine(result: SimIdentification) -> bool:
 def fitted_scene_xml(result: SimIdentification) -> str:
     """The machine scene with the final model's values, as MJCF."""
     rig, friction = _case(result, result.final)
-    return result.train.spec(rig, friction, probes=False).to_xml()
+    named = {n: result.final.values[n] for n in result.final.model.scene}
+    return result.train.spec(rig, friction, probes=False, scene_values=named).to_xml()
 
 
 def set_line(result: SimIdentification) -> str:
