@@ -379,3 +379,22 @@ def test_a_plain_import_mujoco_registers_the_plugins(first):
                          capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "loaded"
+
+
+def test_info_reads_every_plugin_and_its_attributes_from_mujocos_registry(tmp_path):
+    """`vibrofriction info --json`: the versions, and each plugin as MuJoCo registered it; every
+    friction key of the vocabulary (rig.MJCF_KEYS) is an attribute of the friction element."""
+    import json
+
+    from vibrofriction import cli
+    path = tmp_path / "info.json"
+    assert cli.main(["info", "--json", str(path)]) == 0
+    payload = json.loads(path.read_text())
+    assert payload["versions"]["mujoco"] == mujoco.__version__
+    plugins = {p["name"]: p for p in payload["plugins"]}
+    assert set(plugins) == {f"vibrofriction.{n}" for n in (
+        "friction", "motion", "planar", "averaged", "friction_sensor", "planar_sensor",
+        "lagged_tendon", "sampled_pd")}
+    assert plugins["vibrofriction.friction"]["kinds"] == ["actuator"]
+    assert set(rig_module.MJCF_KEYS.values()) <= set(plugins["vibrofriction.friction"]["attributes"])
+    assert {"start_time", "ramp_periods"} <= set(plugins["vibrofriction.motion"]["attributes"])

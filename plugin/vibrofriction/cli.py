@@ -26,6 +26,7 @@ COMMANDS = {
     "compare-builtin": "compare_builtin",
     "convert": "convert",
     "identify": "identify",
+    "info": "info",
 }
 
 
