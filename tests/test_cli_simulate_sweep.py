@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import mujoco
 import pytest
 
 import vibrofriction
@@ -24,6 +25,10 @@ def test_simulate_writes_dataset_and_summary(tmp_path, capsys):
     assert code == 0
     summary = json.loads(json_path.read_text())
     assert summary["law"] == "dahl"
+    assert summary["schema_version"] == 1  # (every JSON output: the schema and its makers)
+    assert summary["versions"] == {"vibrofriction": vibrofriction.__version__,
+                                   "mujoco": mujoco.__version__}
+    assert summary["timestep_s"] > 0 and summary["duration_s"] == 0.04
     assert summary["parameters"]["vibration_velocity_amplitude_m_per_s"] == 3e-3
     assert summary["parameters"]["law"] == "dahl"
     assert summary["kappa"] == pytest.approx(6.0)
@@ -65,7 +70,9 @@ def test_sweep_json_is_exactly_the_interface(tmp_path, capsys):
                  "--timestep", "1e-5"])
     assert code == 0
     result = json.loads(out.read_text())
-    assert list(result) == ["law", "parameters", "static_drive_force_N", "points"]
+    # the interface's keys after the two every JSON output begins with
+    assert list(result) == ["schema_version", "versions", "law", "parameters",
+                            "static_drive_force_N", "points"]
     assert result["law"] == "dahl"
     assert result["static_drive_force_N"] == pytest.approx(11.04, rel=1e-3)
     assert [list(p) for p in result["points"]] == [list(POINT_KEYS)] * 3

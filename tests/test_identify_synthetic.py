@@ -152,8 +152,9 @@ def test_cli_writes_the_report(records, tmp_path, capsys) -> None:
                      "--method", "inverse"])
     assert code == 0
     report = json.loads((out / "report.json").read_text())
-    assert list(report) == ["law", "method", "method_reason", "baseline", "candidates",
-                            "selected_effects", "final", "residual_peaks_Hz"]
+    assert list(report) == ["schema_version", "versions", "law", "method", "method_reason",
+                            "baseline", "candidates", "selected_effects", "final",
+                            "residual_peaks_Hz"]
     assert report["method"] == "inverse" and "--method inverse" in report["method_reason"]
     assert report["law"] == "lugre"
     assert report["selected_effects"] == ["asymmetry"]

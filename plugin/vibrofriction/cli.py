@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import json
 import os
 import re
 import sys
@@ -64,13 +63,15 @@ def write_json(path: Path | None, payload: Any) -> None:
     inside ``datasets.all_or_nothing()`` together with the block's other outputs."""
     from .datasets import stage_file
 
-    text = json.dumps(payload, indent=2, sort_keys=False)
+    from .provenance import json_text
+
+    text = json_text(payload)
     if path is None:
-        print(text)
+        print(text, end="")
         return
     path = Path(path)
     check_output_file(path, "the output")
-    stage_file(path, (text + "\n").encode())
+    stage_file(path, text.encode())
 
 
 def check_output_file(path: Path | None, option: str) -> None:

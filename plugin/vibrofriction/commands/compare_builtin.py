@@ -2,11 +2,11 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from ..cli import add_common_arguments, check_replaceable_folder, parse_overrides, write_json
 from ..datasets import all_or_nothing, stage_folder
+from ..provenance import json_text
 from ..params import PAPER_CONTACT_STIFFNESS_N_PER_M, FrictionParameters, ParameterError, \
     apply_overrides
 from ..study import builtin
@@ -76,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
 
     def write(folder: Path) -> None:
         builtin.write_comparison(result, folder)
-        (folder / "builtin.json").write_text(json.dumps(payload, indent=2) + "\n")
+        (folder / "builtin.json").write_text(json_text(payload))
 
     with all_or_nothing():  # DIR and --json FILE: both or neither
         stage_folder(args.out, write)

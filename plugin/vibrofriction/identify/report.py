@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import os
 from pathlib import Path
@@ -12,6 +11,7 @@ import numpy as np
 
 from ..datasets import stage_folder
 from ..params import RigParameters
+from ..provenance import json_text
 from .fit import FitResult
 from .model import EFFECT_FIELDS, EFFECTS
 from .selection import Identification
@@ -286,7 +286,7 @@ def write_report(result: Identification, out_dir: str | os.PathLike, *,
     A failure while writing leaves ``out_dir`` as it was (no half-written report).
     """
     def write(tmp: Path) -> None:
-        (tmp / "report.json").write_text(json.dumps(report_json(result), indent=2) + "\n")
+        (tmp / "report.json").write_text(json_text(report_json(result)))
         (tmp / "report.md").write_text(report_markdown(result, rig_replay_result))
         if figures:
             from .figures import write_figures

@@ -8,7 +8,6 @@ measured channel's error) and ``settings``; ``rmse_N``/``relerr_pct`` are of the
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 from pathlib import Path
 from typing import Any
@@ -16,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..params import RigParameters
+from ..provenance import json_text
 from .model import EFFECT_FIELDS, EFFECTS
 from .report import write_folder
 from .simulation import SimFit, SimIdentification
@@ -274,7 +274,7 @@ def _closed_loop_section(r: SimIdentification) -> list[str]:
 
 def write_report(result: SimIdentification, out_dir, *, figures: bool = True) -> Path:
     def write(tmp: Path) -> None:
-        (tmp / "report.json").write_text(json.dumps(report_json(result), indent=2) + "\n")
+        (tmp / "report.json").write_text(json_text(report_json(result)))
         (tmp / "report.md").write_text(report_markdown(result))
         if _is_machine(result):
             (tmp / "fitted_model.xml").write_text(fitted_scene_xml(result))

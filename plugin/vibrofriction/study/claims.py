@@ -22,6 +22,7 @@ import mujoco
 
 from .. import __version__, params
 from ..params import LAWS
+from ..provenance import stamped
 from .config import (EXPERIMENT_FIG13, EXPERIMENT_FIG14, MM_PER_S, N_PER_UM, StudyConfig,
                      contact_resonance_Hz)
 from .figures import ExperimentTraces, MasterPoint, StiffnessStudy, curve
@@ -576,8 +577,9 @@ def summary_markdown(results: StudyResults, claims: Sequence[Claim]) -> str:
 def write_summary(results: StudyResults, out: Path) -> list[Claim]:
     claims = all_claims(results)
     out = Path(out)
-    (out / "claims.json").write_text(json.dumps(_clean(summary_json(results, claims)),
-                                                indent=2, allow_nan=False) + "\n")
+    text = json.dumps(stamped(_clean(summary_json(results, claims))), indent=2,
+                      allow_nan=False)
+    (out / "claims.json").write_text(text + "\n")
     (out / "summary.md").write_text(summary_markdown(results, claims))
     return claims
 

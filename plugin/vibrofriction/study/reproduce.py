@@ -1,13 +1,13 @@
 """One call that regenerates every computational figure of the paper and the claims summary."""
 from __future__ import annotations
 
-import json
 import time
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from . import builtin, figures
+from ..provenance import json_text
 from .claims import Claim, StudyResults, write_summary
 from .config import StudyConfig
 from .output import StageLog, write_csv
@@ -68,8 +68,7 @@ def reproduce(out: Path = DEFAULT_OUT, *, config: StudyConfig | None = None,
                   f"{list(cmp_config.ladder_steps)} steps per period")
         comparison = builtin.compare(config, cmp_config, progress=log.progress)
         builtin.write_comparison(comparison, out)
-        (out / "builtin.json").write_text(json.dumps(comparison_json(comparison), indent=2)
-                                          + "\n")
+        (out / "builtin.json").write_text(json_text(comparison_json(comparison)))
     files = sorted(p.name for p in out.iterdir() if p.suffix in (".png", ".csv", ".md", ".json"))
     results = StudyResults(config=config, traces=traces, profiles=profiles, master=master,
                            stiffness=stiffness, fig13=fig13, fig14=fig14, sweep=sweep,
