@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._native import _LawParameters, load
-from .params import LAWS, FrictionParameters, ParameterError
+from .params import LAWS, PAPER_NORMAL_FORCE_N, FrictionParameters, ParameterError
 
 
 @dataclass(frozen=True)
@@ -71,7 +71,7 @@ def _normal_argument(normal_force_N, n: int) -> tuple[float, np.ndarray | None]:
 
 
 def run_law(friction: FrictionParameters, time_s, relative_velocity_m_per_s, *,
-            normal_force_N=55.2, position_m=None, initial_deflection_m: float = 0.0) -> LawRun:
+            normal_force_N=PAPER_NORMAL_FORCE_N, position_m=None, initial_deflection_m: float = 0.0) -> LawRun:
     """Friction force and deflection along a prescribed history (kinematic driving).
 
     ``normal_force_N`` is a constant or an array over the samples; ``position_m`` (relative

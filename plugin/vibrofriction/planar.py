@@ -26,7 +26,7 @@ from scipy import special
 
 from ._native import load
 from .laws import _as_c_array, _c_parameters, _normal_argument, _time_argument
-from .params import FrictionParameters, ParameterError, RigParameters
+from .params import PAPER_NORMAL_FORCE_N, FrictionParameters, ParameterError, RigParameters
 from .rig import (MJCF_DIR, MJCF_KEYS, default_times, initial_state, sensor_slices,
                   set_plugin_config)
 from .summary import averaging_window
@@ -76,7 +76,7 @@ class PlanarLawRun:
 
 
 def run_planar_law(friction: FrictionParameters, time_s, relative_velocity_m_per_s, *,
-                   normal_force_N=55.2, initial_deflection_m=(0.0, 0.0)) -> PlanarLawRun:
+                   normal_force_N=PAPER_NORMAL_FORCE_N, initial_deflection_m=(0.0, 0.0)) -> PlanarLawRun:
     """The planar law along a prescribed relative velocity history (n x 2), kinematic driving.
 
     Step order as the plugin: force i uses (z_i, v_i); z_{i+1} advances with v_{i+1}. Coulomb

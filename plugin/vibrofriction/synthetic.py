@@ -31,7 +31,7 @@ from typing import Mapping
 import numpy as np
 
 from .datasets import Dataset, DatasetMetadata, write_dataset
-from .params import FrictionParameters, ParameterError, RigParameters
+from .params import PAPER_NORMAL_FORCE_N, FrictionParameters, ParameterError, RigParameters
 from .reference import first_order_lag, simulate_reference, support_motion
 
 # The rig of the paper, pulled faster than in its figs. 7-12 (1 mm/s instead of 0.5 mm/s) so
@@ -39,7 +39,8 @@ from .reference import first_order_lag, simulate_reference, support_motion
 BASE_RIG = RigParameters(mass_kg=0.5, drive_stiffness_N_per_m=1.0e6,
                          drive_damping_N_s_per_m=0.0, drive_velocity_m_per_s=1.0e-3,
                          vibration_frequency_Hz=4000.0,
-                         vibration_velocity_amplitude_m_per_s=20.0e-3, normal_force_N=55.2)
+                         vibration_velocity_amplitude_m_per_s=20.0e-3,
+                         normal_force_N=PAPER_NORMAL_FORCE_N)
 # LuGre with the paper's contact stiffness; sigma1 gives damping ratio ~0.05 of the 2 kHz
 # contact resonance with m = 0.5 kg.
 BASE_FRICTION = FrictionParameters(law="lugre", friction_coefficient=0.2,

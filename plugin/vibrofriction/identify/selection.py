@@ -22,7 +22,6 @@ joins the model; repeat until none is justified. Nothing is selected when nothin
 from __future__ import annotations
 
 import math
-import os
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -30,6 +29,7 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
+from .. import rig as rig_module
 from ..datasets import Dataset
 from ..errors import InputError
 from ..params import LAWS, FrictionParameters
@@ -120,7 +120,7 @@ def identify(train: Dataset, validation: Sequence[Dataset] = (), *, law: str = "
     candidates: dict[str, Candidate] = {}
     rounds: list[list[Candidate]] = []
     selected: list[str] = []
-    workers = threads or min(len(remaining) or 1, _cpu_count())
+    workers = threads or min(len(remaining) or 1, rig_module._cpu_count())
     with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
         while remaining:
             index = len(rounds) + 1
@@ -454,13 +454,6 @@ def _exposing_regressor(effect: str, analysis: ResidualAnalysis) -> str:
         return preferred
     strongest = analysis.strongest()
     return strongest and next(k for k, v in analysis.binned.items() if v is strongest) or "time"
-
-
-def _cpu_count() -> int:
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # pragma: no cover
-        return max(1, os.cpu_count() or 1)
 
 
 __all__ = ["identify", "Identification", "Candidate", "BIC_THRESHOLD", "MIN_IMPROVEMENT"]
