@@ -7,7 +7,6 @@ runs the model natively with ``mujoco.rollout`` (sensors recorded every step).
 from __future__ import annotations
 
 import math
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence
@@ -323,11 +322,6 @@ def _cpu_count() -> int:
 
 
 def progress_printer(label: str) -> Callable[[int, int], None]:
-    """A one-line progress bar on stderr."""
-    def report(done: int, total: int) -> None:
-        width = 30
-        filled = int(width * done / total)
-        end = "\n" if done == total else ""
-        print(f"\r{label} [{'#' * filled}{'.' * (width - filled)}] {done}/{total}",
-              end=end, file=sys.stderr, flush=True)
-    return report
+    """A progress report on stderr (``progress.progress_bar``)."""
+    from .progress import progress_bar
+    return progress_bar(label)

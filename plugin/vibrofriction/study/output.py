@@ -86,15 +86,8 @@ class StageLog:
         """A ``progress(done, total)`` callback drawing one bar per call site, or None."""
         if self.quiet:
             return None
-        stream = self.stream
-
-        def report(done: int, total: int) -> None:
-            width = 30
-            filled = int(width * done / max(total, 1))
-            end = "\n" if done >= total else ""
-            print(f"\r    {label} [{'#' * filled}{'.' * (width - filled)}] {done}/{total}",
-                  end=end, file=stream, flush=True)
-        return report
+        from ..progress import progress_bar
+        return progress_bar(label, self.stream, indent="    ")
 
     def note(self, text: str) -> None:
         if not self.quiet:
