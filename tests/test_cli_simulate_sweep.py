@@ -87,7 +87,7 @@ def test_sweep_json_is_exactly_the_interface(tmp_path, capsys):
     for p in result["points"]:
         assert p["ratio"] == pytest.approx(p["mean_drive_force_N"]
                                            / result["static_drive_force_N"])
-    assert "sweep: 3/3" in capsys.readouterr().err  # progress on stderr (a log: lines)
+    assert "sweep: 4/4" in capsys.readouterr().err  # progress on stderr (a log: lines)
 
 
 def test_sweep_runs_every_law_with_overrides(tmp_path):

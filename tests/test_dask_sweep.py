@@ -59,3 +59,18 @@ def test_dask_local_cluster_equals_local_run(local_result):
     assert via_client.engine.startswith("dask")
     _assert_same(local_result, via_client)
     _assert_same(local_result, via_address)
+
+
+def test_the_sweep_command_on_a_dask_cluster_equals_its_local_run():
+    """`vibrofriction sweep --scheduler ADDRESS`: the same JSON as on local threads."""
+    from vibrofriction.params import RigParameters, default_friction
+    from vibrofriction.sweep import sweep
+
+    rig = RigParameters()
+    settings = dict(timestep_s=1e-5, duration_s=0.04, settle_time_s=0.03, progress=False)
+    local = sweep(rig, default_friction("dahl", rig), [0.75e-3, 3e-3], **settings)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        remote = sweep(rig, default_friction("dahl", rig), [0.75e-3, 3e-3],
+                       scheduler=cluster.scheduler_address, **settings)
+    assert remote == local

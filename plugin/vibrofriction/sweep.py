@@ -18,21 +18,29 @@ POINT_KEYS = ("vibration_velocity_amplitude_m_per_s", "kappa", "mean_drive_force
 
 def sweep(rig: RigParameters, friction: FrictionParameters, amplitudes: list[float], *,
           timestep_s: float, duration_s: float, settle_time_s: float,
-          nthread: int | None = None, progress: bool = True) -> dict[str, Any]:
-    """Run the sweep; return the interfaces.md JSON object."""
+          nthread: int | None = None, progress: bool = True,
+          scheduler: Any = None) -> dict[str, Any]:
+    """Run the sweep; return the interfaces.md JSON object. Local rollout threads, or with
+    ``scheduler`` (a Dask address or Client) one task per amplitude on that cluster."""
     cases = [(replace(rig, vibration_velocity_amplitude_m_per_s=0.0), friction)]
     cases += [(replace(rig, vibration_velocity_amplitude_m_per_s=va), friction)
               for va in amplitudes]
-    runs = rig_module.simulate_many(
-        cases, duration_s=duration_s, timestep_s=timestep_s, settle_time_s=settle_time_s,
-        nthread=nthread, progress=rig_module.progress_printer("sweep") if progress else None)
-    static = runs[0].summary(settle_time_s).mean_drive_force_N
+    report = rig_module.progress_printer("sweep") if progress else None
+    if scheduler is None:
+        runs = rig_module.simulate_many(
+            cases, duration_s=duration_s, timestep_s=timestep_s,
+            settle_time_s=settle_time_s, nthread=nthread, progress=report)
+        summaries = [run.summary(settle_time_s) for run in runs]
+    else:
+        from .study.sweep import dask_map
+        summaries = dask_map(_case_summary, [(r, f, timestep_s, duration_s, settle_time_s)
+                                             for r, f in cases], scheduler, progress=report)
+    static = summaries[0].mean_drive_force_N
     points = []
-    for run in runs[1:]:
-        s = run.summary(settle_time_s)
+    for (case_rig, _), s in zip(cases[1:], summaries[1:]):
         points.append({
-            "vibration_velocity_amplitude_m_per_s": run.rig.vibration_velocity_amplitude_m_per_s,
-            "kappa": run.rig.kappa,
+            "vibration_velocity_amplitude_m_per_s": case_rig.vibration_velocity_amplitude_m_per_s,
+            "kappa": case_rig.kappa,
             "mean_drive_force_N": s.mean_drive_force_N,
             "ratio": s.mean_drive_force_N / static if static != 0 else None,
             "friction_min_N": s.friction_min_N,
@@ -41,3 +49,11 @@ def sweep(rig: RigParameters, friction: FrictionParameters, amplitudes: list[flo
         })
     return {"law": friction.law, "parameters": as_dict(rig, friction),
             "static_drive_force_N": static, "points": points}
+
+
+def _case_summary(job: tuple) -> Any:
+    """One case of a sweep on a Dask worker: its summary (not its time series)."""
+    rig, friction, timestep_s, duration_s, settle_time_s = job
+    run = rig_module.simulate(rig, friction, duration_s=duration_s, timestep_s=timestep_s,
+                              settle_time_s=settle_time_s)
+    return run.summary(settle_time_s)

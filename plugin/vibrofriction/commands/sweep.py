@@ -26,6 +26,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_run_arguments(parser)
     parser.add_argument("--threads", type=int, default=None, metavar="N",
                         help="rollout threads (default: one per CPU core, at most one per run)")
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                        help="run the amplitudes on this Dask scheduler (HOST:PORT; needs the "
+                             "extra 'dask' and vibrofriction installed on the workers) instead "
+                             "of local rollout threads")
 
 
 def parse_amplitudes(text: str) -> list[float]:
@@ -57,6 +61,6 @@ def run(args: argparse.Namespace) -> int:
         case_rig.validate()
     timestep, duration, settle = run_settings(args, cases)
     result = sweep(rig, friction, amplitudes, timestep_s=timestep, duration_s=duration,
-                   settle_time_s=settle, nthread=args.threads)
+                   settle_time_s=settle, nthread=args.threads, scheduler=args.scheduler)
     write_json(args.json_path, result)
     return 0

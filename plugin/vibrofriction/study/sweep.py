@@ -14,7 +14,7 @@ import itertools
 import math
 import time
 from dataclasses import dataclass, replace
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 from ..errors import InputError
 from ..params import FrictionParameters, RigParameters
@@ -150,22 +150,36 @@ def _run_local(tasks: Sequence[SweepTask], progress: Progress | None) -> list:
 
 
 def _run_dask(tasks: Sequence[SweepTask], scheduler: Any, progress: Progress | None) -> list:
+    chunks = dask_map(run_task, tasks, scheduler, sizes=[len(t.indices) for t in tasks],
+                      progress=progress)
+    return [row for chunk in chunks for row in chunk]
+
+
+def dask_map(function: Callable[[Any], Any], items: Sequence[Any], scheduler: Any,
+             sizes: Sequence[int] | None = None, progress: Progress | None = None) -> list:
+    """``function`` over ``items`` on a Dask cluster (``scheduler``: an address or a
+    ``Client``), the results in the items' order; ``progress(done, total)`` counts ``sizes``
+    (default one per item) as items complete."""
     try:
         from dask.distributed import Client, as_completed
     except ImportError as exc:  # pragma: no cover - depends on the environment
         raise DaskUnavailable(
             "--scheduler needs dask.distributed; install the extra: pip install "
             "'vibrofriction[dask]' (or pip install 'dask[distributed]')") from exc
+    sizes = list(sizes) if sizes is not None else [1] * len(items)
     own_client = not isinstance(scheduler, Client)
     client = Client(scheduler) if own_client else scheduler
     try:
-        futures = client.map(run_task, list(tasks), pure=False)
-        out = []
-        total = sum(len(t.indices) for t in tasks)
+        futures = client.map(function, list(items), pure=False)
+        position = {future.key: i for i, future in enumerate(futures)}
+        out: list[Any] = [None] * len(futures)
+        done = 0
         for future in as_completed(futures):
-            out += future.result()
+            i = position[future.key]
+            out[i] = future.result()
+            done += sizes[i]
             if progress:
-                progress(len(out), total)
+                progress(done, sum(sizes))
         return out
     finally:
         if own_client:
