@@ -26,6 +26,7 @@ COMMANDS = {
     "convert": "convert",
     "identify": "identify",
     "info": "info",
+    "view": "view",
 }
 
 
