@@ -1,0 +1,22 @@
+"""The paper's master curve in a few lines: the drive force with the table vibrating, over the
+vibration velocity amplitude, relative to the drive force without vibration.
+
+    python examples/sweep_master_curve.py
+"""
+from vibrofriction.params import RigParameters, default_friction
+from vibrofriction.sweep import sweep
+
+
+def main() -> None:
+    rig = RigParameters()  # the paper's rig: 4 kHz, v_d = 0.5 mm/s, F_N = 55.2 N
+    result = sweep(rig, default_friction("dahl", rig), [0.75e-3, 3e-3, 20e-3],
+                   timestep_s=1e-5, duration_s=0.04, settle_time_s=0.03, progress=False)
+    print(f"static drive force {result['static_drive_force_N']:.3f} N")
+    for point in result["points"]:
+        print(f"v_a {1e3 * point['vibration_velocity_amplitude_m_per_s']:5.2f} mm/s "
+              f"(kappa {point['kappa']:4.1f}): F_dv/F_ds = {point['ratio']:.3f}, "
+              f"friction changes sign: {point['sign_change']}")
+
+
+if __name__ == "__main__":
+    main()
