@@ -37,8 +37,8 @@ PUBLISHED = {"mass_kg": 95.1089, "viscous_N_s_per_m": 203.5034, "coulomb_N": 20.
 class Convention(MachineReplay):
     """The EMPS replay with the controller's sample period, delay or saturation overridden."""
 
-    def spec(self, rig, friction) -> mujoco.MjSpec:
-        spec = super().spec(rig, friction)
+    def spec(self, rig, friction, probes=True, scene_values=None) -> mujoco.MjSpec:
+        spec = super().spec(rig, friction, probes, scene_values)
         controller = next(p for p in spec.plugins if p.name == self.scene.controller)
         rig_module.set_plugin_config(spec, self.scene.controller,
                                      {**dict(controller.config), **self.overrides})

@@ -2,6 +2,7 @@
 exit code 2, no traceback, nothing written and nothing existing changed."""
 from __future__ import annotations
 
+import json
 import os
 import signal
 import sys
@@ -272,3 +273,33 @@ def test_a_run_larger_than_memory_is_one_line_exit_2(tmp_path, monkeypatch, caps
     monkeypatch.chdir(tmp_path)
     monkeypatch.setattr(rig, "simulate_many", too_large)
     _one_line_exit_2(capsys, cli.main(["simulate", *SHORT]), "not enough memory")
+
+
+def test_a_stage_without_vibration_is_refused_where_the_study_averages(tmp_path, capsys):
+    """reproduce and compare-builtin average steady vibration: --set vibration_from_s is one
+    message before anything runs, not an oracle failure after the study."""
+    for command in (["reproduce", "--quick"], ["compare-builtin", "--quick"]):
+        out = tmp_path / command[0]
+        _one_line_exit_2(capsys, cli.main([*command, "--set", "vibration_from_s=0.01",
+                                           "--out", str(out)]),
+                         "vibration_from_s=... is not accepted")
+        assert not out.exists()
+
+
+def test_an_unreachable_dask_scheduler_is_one_message(monkeypatch, capsys):
+    pytest.importorskip("dask.distributed", reason="the optional extra dask is not installed")
+    from vibrofriction.study import sweep as study_sweep
+    monkeypatch.setattr(study_sweep, "CONNECT_TIMEOUT_S", 1)
+    _one_line_exit_2(capsys, cli.main(["sweep", "--va", "1e-3", "--scheduler", "127.0.0.1:9",
+                                       *SHORT]), "no Dask scheduler answers there")
+
+
+def test_info_shows_the_versions_when_the_plugins_cannot_load(tmp_path, monkeypatch):
+    from vibrofriction import _build_info, _native
+    monkeypatch.setattr(_build_info, "MUJOCO_VERSION", "0.0.1")
+    monkeypatch.setattr(_native, "_library", None)  # as in a fresh process: load() checks
+    path = tmp_path / "info.json"
+    assert cli.main(["info", "--json", str(path)]) == 0
+    payload = json.loads(path.read_text())
+    assert payload["versions"]["mujoco_built_against"] == "0.0.1"
+    assert payload["plugins"] == [] and "compiled against MuJoCo 0.0.1" in payload["error"]

@@ -191,6 +191,9 @@ def build_rig_spec(rig: RigParameters, friction: FrictionParameters, *,
     """
     load()
     rig.validate()
+    if rig.vibration_from_s > 0:
+        raise ParameterError("the planar rig vibrates from the start; vibration_from_s="
+                             f"{rig.vibration_from_s!r} is for the 1D rig (rig.simulate)")
     check_planar(friction)
     if not (timestep_s > 0 and math.isfinite(timestep_s)):
         raise ParameterError(f"timestep {timestep_s!r} must be a positive number of seconds")

@@ -149,7 +149,8 @@ def default_times(rig: RigParameters, friction: FrictionParameters) -> tuple[flo
     static_force_N = friction.friction_coefficient * rig.normal_force_N * friction.static_ratio
     t_load_s = static_force_N / (rig.drive_stiffness_N_per_m * abs(rig.drive_velocity_m_per_s))
     settle_time_s = 2.0 * t_load_s + 0.03
-    if rig.vibration_from_s > 0 and rig.vibration_frequency_Hz > 0:
+    if rig.vibration_from_s > 0 and rig.vibration_frequency_Hz > 0 and \
+            rig.vibration_velocity_amplitude_m_per_s > 0:
         settle_time_s += rig.vibration_from_s + VIBRATION_RAMP_PERIODS / rig.vibration_frequency_Hz
     return settle_time_s + 0.04, settle_time_s
 

@@ -105,7 +105,6 @@ class Scenario:
     noise: SensorNoise = SensorNoise()
     disturbance: PeriodicDisturbance | None = None
     seed: int = 0
-    vibration_from_s: float = 0.0  # > 0: a first stage without vibration (state laws)
 
 
 def with_effect(effect: str | None, scenario: Scenario | None = None, *,
@@ -135,8 +134,8 @@ LAB_OVERRIDES = {"sensor_lag": {"sensor_lag_s": 5e-5}}
 def lab_scenario(effect: str | None,
                  disturbance: PeriodicDisturbance | None = None) -> Scenario:
     """The base rig measured as a lab would (``LAB_COLUMNS``), one effect hidden (or none)."""
-    base = Scenario(measured="drive", duration_s=LAB_DURATION_S,
-                    vibration_from_s=LAB_VIBRATION_FROM_S, disturbance=disturbance)
+    base = Scenario(rig=replace(BASE_RIG, vibration_from_s=LAB_VIBRATION_FROM_S),
+                    measured="drive", duration_s=LAB_DURATION_S, disturbance=disturbance)
     return with_effect(effect, base, overrides=LAB_OVERRIDES.get(effect or ""))
 
 
@@ -159,8 +158,7 @@ def generate(scenario: Scenario, name: str = "synthetic", description: str = "")
     # A drive-force record's lag is the dynamometer's: the friction itself is not lagged.
     lag_s = friction.sensor_lag_s
     simulated = replace(friction, sensor_lag_s=0.0) if scenario.measured == "drive" else friction
-    ref = simulate_reference(rig, simulated, scenario.duration_s, sample_dt_s=dt / oversample,
-                             vibration_from_s=scenario.vibration_from_s)
+    ref = simulate_reference(rig, simulated, scenario.duration_s, sample_dt_s=dt / oversample)
     # The dynamometer is the drive spring: it reads k_d (v_d t - x), through its lag; a damper
     # acting in parallel (drive_damping) pushes the slider without passing through it.
     spring = rig.drive_stiffness_N_per_m * (rig.drive_velocity_m_per_s * ref.time_s -
@@ -173,7 +171,7 @@ def generate(scenario: Scenario, name: str = "synthetic", description: str = "")
     rng = np.random.default_rng(scenario.seed)
     noise = scenario.noise
     t = ref.time_s
-    support_position, _ = support_motion(rig, t, scenario.vibration_from_s)
+    support_position, _ = support_motion(rig, t)  # (the rig's vibration_from_s)
 
     def noisy(values: np.ndarray, sigma: float) -> np.ndarray:
         return values + sigma * rng.standard_normal(values.shape) if sigma > 0 else values

@@ -40,6 +40,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     overrides = parse_overrides(args.overrides)
     changes = {}
+    if "vibration_from_s" in overrides:
+        raise ParameterError("compare-builtin compares steady vibration; --set "
+                             "vibration_from_s=... is not accepted (use simulate for a stage "
+                             "without vibration)")
     if overrides:
         rig, friction = apply_overrides(PAPER_RIG, FrictionParameters(
             contact_stiffness_N_per_m=PAPER_CONTACT_STIFFNESS_N_PER_M), overrides)

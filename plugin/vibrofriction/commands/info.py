@@ -17,7 +17,7 @@ import mujoco
 
 from .. import __version__, _build_info
 from .._mujoco_plugins import library_path
-from .._native import load
+from .._native import MujocoVersionMismatch, load
 from ..cli import write_json
 
 HELP = ("show the versions, the plugin library and the plugins with their MJCF attributes "
@@ -63,13 +63,21 @@ def registered_plugins() -> list[dict[str, Any]]:
 
 
 def info() -> dict[str, Any]:
+    """What is installed; the plugins only where the library loads (a MuJoCo other than the
+    one it was built against is reported as ``error``, with the versions that show why)."""
+    try:
+        plugins, error = registered_plugins(), None
+    except MujocoVersionMismatch as exc:
+        plugins, error = [], str(exc)
     return {
         "versions": {"vibrofriction": __version__, "mujoco": mujoco.__version__,
                      "mujoco_built_against": _build_info.MUJOCO_VERSION},
         "library": str(library_path()),
+        # (declared by the installed package; it loads the library at `import mujoco`)
         "entry_point_installed": any(ep.value == ENTRY_POINT
                                      for ep in entry_points(group="mujoco.plugins")),
-        "plugins": registered_plugins(),
+        "plugins": plugins,
+        "error": error,
     }
 
 
@@ -86,6 +94,8 @@ def run(args: argparse.Namespace) -> int:
         "yes (entry point in mujoco.plugins)" if payload["entry_point_installed"] else
         "no (a source tree: the entry point comes with pip install .); vibrofriction.load() "
         "registers them"))
+    if payload["error"]:
+        print(f"the plugins cannot load: {payload['error']}")
     for plugin in payload["plugins"]:
         print(f"{plugin['name']} ({', '.join(plugin['kinds'])}): "
               f"{', '.join(plugin['attributes']) or 'no attributes'}")

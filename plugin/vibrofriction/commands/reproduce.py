@@ -50,6 +50,10 @@ def config_from_args(args: argparse.Namespace) -> StudyConfig:
             contact_stiffness_N_per_m=PAPER_CONTACT_STIFFNESS_N_PER_M), overrides)
         if "law" in overrides:
             raise ParameterError("reproduce runs every law; --set law=... is not accepted")
+        if "vibration_from_s" in overrides:
+            raise ParameterError("reproduce averages over steady vibration, as the paper's "
+                                 "study does; --set vibration_from_s=... is not accepted (use "
+                                 "simulate for a stage without vibration)")
         changes["rig"] = rig
         changes["friction"] = friction
     if args.timestep is not None:

@@ -114,7 +114,12 @@ def _too_many_steps(args: argparse.Namespace,
         rig, friction = max(cases, key=lambda c: rig_module.default_times(*c)[0])
         long_text = f"the default duration {_g(duration)} s"
         fixes.append("--duration S")
-        if duration > 1.0:  # not the usual tenth of a second: say what made it long
+        staged = rig.vibration_from_s > 0 and rig.vibration_velocity_amplitude_m_per_s > 0
+        if staged and rig.vibration_from_s > 0.5 * duration:  # the still stage made it long
+            long_text += (f" (the still stage vibration_from_s={_g(rig.vibration_from_s)} s, "
+                          "the vibration's build-up, then the transient and the window)")
+            fixes.append("--set a smaller vibration_from_s")
+        elif duration > 1.0:  # not the usual tenth of a second: say what made it long
             long_text += (
                 " (two loadings of the drive spring to breakaway, 2 friction_coefficient "
                 "normal_force_N static_ratio / (drive_stiffness_N_per_m "

@@ -25,6 +25,9 @@ from .runner import Case, Progress, run_points, shared_times
 DEFAULT_CHUNK_SIZE = 8
 
 
+CONNECT_TIMEOUT_S = 10  # waiting for a --scheduler to answer
+
+
 class DaskUnavailable(InputError):
     """--scheduler was given but dask.distributed is not installed."""
 
@@ -168,7 +171,11 @@ def dask_map(function: Callable[[Any], Any], items: Sequence[Any], scheduler: An
             "'vibrofriction[dask]' (or pip install 'dask[distributed]')") from exc
     sizes = list(sizes) if sizes is not None else [1] * len(items)
     own_client = not isinstance(scheduler, Client)
-    client = Client(scheduler) if own_client else scheduler
+    try:
+        client = Client(scheduler, timeout=CONNECT_TIMEOUT_S) if own_client else scheduler
+    except (OSError, TimeoutError) as exc:
+        raise InputError(f"--scheduler {scheduler}: no Dask scheduler answers there ({exc}); "
+                         "start one (dask scheduler) or check the address") from None
     try:
         futures = client.map(function, list(items), pure=False)
         position = {future.key: i for i, future in enumerate(futures)}
