@@ -186,7 +186,9 @@ def dataset_of(run: rig_module.RigRun, name: str) -> Dataset:
     metadata = DatasetMetadata(
         description=(f"vibrofriction simulate: law {run.friction.law}, v_a = "
                      f"{float(rig.vibration_velocity_amplitude_m_per_s)!r} m/s, dt = "
-                     f"{float(run.timestep_s)!r} s"),
+                     f"{float(run.timestep_s)!r} s" + (
+                         f", the table still until {float(rig.vibration_from_s)!r} s"
+                         if rig.vibration_from_s > 0 else "")),
         mass_kg=rig.mass_kg,
         drive_stiffness_N_per_m=rig.drive_stiffness_N_per_m,
         drive_velocity_m_per_s=rig.drive_velocity_m_per_s,
