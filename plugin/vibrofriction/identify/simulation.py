@@ -21,9 +21,10 @@ Timestep. Halved until halving it again moves the prediction less than
 baseline (a fit can move to stiff contacts the step no longer resolves, and exploit its error).
 
 Baseline. Starts from a scan of the level and the contact's deflection (then the shape); when
-the record begins with the support standing still, a fit to that stage alone is one more start:
-fitted over growing windows of it (``STILL_WINDOWS``), each started from the last, so that the
-contact's loading fixes the stiffness before a stick-slip's timing can trap the fit.
+the record begins with the support standing still, fits to that stage alone are two more starts:
+one over the whole stage, one over growing windows of it (``STILL_WINDOWS``), each started from
+the last, so that the contact's loading fixes the stiffness before a stick-slip's timing can
+trap the fit.
 
 Selection (forward, as the inverse path). Each round screens every candidate linearized at the
 round's model (in round 1 at each local optimum of the baseline): the residual projected on the
@@ -449,8 +450,16 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
     # only) has more than one basin in the contact stiffness.
     if still is not None:
         # The stage before the vibration shows the contact alone (pre-sliding, breakaway):
-        # fitted over growing windows of it, it starts the whole record's fit too.
+        # fitted at once and over growing windows of it, it gives two more starts (at once
+        # was measured the better start of a position-only record with a hidden Stribeck
+        # peak; the windows, of a noise-free record of a LuGre law with its peak).
         start = starts[0]
+        stage = SimulationProblem(prepare_replay(still, substeps=replay.substeps), [], law,
+                                  problem.runner.threads)
+        try:
+            at_once = model.internal_values(stage.fit(model, start, BASELINE_EVALUATIONS).q)
+        finally:
+            stage.close()
         for fraction in STILL_WINDOWS:
             rows = max(4 * MIN_SAMPLES, int(fraction * still.n_rows))
             window = prepare_replay(_first_rows(still, rows), substeps=replay.substeps)
@@ -459,9 +468,9 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
                 start = model.internal_values(stage.fit(model, start, BASELINE_EVALUATIONS).q)
             finally:
                 stage.close()
-        starts = [*starts, start]
-        say(f"baseline: the {still.n_rows} samples before the vibration starts, fitted over "
-            f"{len(STILL_WINDOWS)} growing windows, give one more start")
+        starts = [*starts, at_once, start]
+        say(f"baseline: the {still.n_rows} samples before the vibration starts, fitted at "
+            f"once and over {len(STILL_WINDOWS)} growing windows, give two more starts")
     local = sorted((problem.fit(model, start, BASELINE_EVALUATIONS) for start in starts),
                    key=lambda fit: fit.rss)
     baseline = local[0]
