@@ -92,13 +92,22 @@ CASES = [
      "--json a_run/summary.json is inside --out a_run"),
     # too many steps: the parameter values that made the default duration or timestep
     (["simulate", "--set", "normal_force_N=1e9"],
-     "the default duration 800000 s (two loadings of the drive spring to breakaway"),
+     "a run to steady state of up to 800000 s (two loadings of the drive spring to breakaway"),
     (["simulate", "--set", "drive_velocity_m_per_s=1e-9"], "--set a smaller normal_force_N or "
      "a larger drive_velocity_m_per_s"),
     (["sweep", "--va", "1e3"], "kappa_v = vibration_velocity_amplitude_m_per_s / "
      "drive_velocity_m_per_s = 1000/0.0005"),
     (["simulate", "--duration", "1e6", "--timestep", "1e-3"],
      "--duration 1e+06 s at --timestep 0.001 s is 1e+09 steps"),
+    # the run to steady state and its options
+    (["simulate", "--settle", "0.01"], "--settle needs --duration"),
+    (["sweep", "--va", "1e-3", "--tolerance", "0"], "--tolerance '0' must be a finite number"),
+    (["simulate", "--max-duration", "nan"], "--max-duration 'nan' must be a finite number"),
+    (["simulate", "--max-duration", "1", *SHORT], "--max-duration applies to runs to steady "
+     "state"),
+    (["simulate", "--max-duration", "1e5", "--timestep", "1e-7"], "a run to steady state of up "
+     "to 100000 s at --timestep 1e-07 s is 1e+12 steps, more than 5e+08; give a shorter "
+     "--max-duration"),
     # negative numbers in scientific notation are values: the option's own check speaks
     (["sweep", "--va", "-1e-3"], "--va entry '-1e-3' must be a finite velocity amplitude >= 0"),
     (["simulate", "--timestep", "-1e-5", *SHORT], "--timestep -1e-05 must be a finite number"),

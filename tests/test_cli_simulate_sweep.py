@@ -13,7 +13,7 @@ import pytest
 import vibrofriction
 from vibrofriction.cli import main
 from vibrofriction.datasets import COLUMNS, MACHINE_INPUT_COLUMNS, read_dataset
-from vibrofriction.sweep import POINT_KEYS
+from vibrofriction.sweep import CONVERGENCE_KEYS, POINT_KEYS
 
 SHORT = ["--duration", "0.04", "--settle", "0.03"]  # 40 periods averaged, loaded at 22 ms
 
@@ -72,10 +72,13 @@ def test_sweep_json_is_exactly_the_interface(tmp_path, capsys):
     result = json.loads(out.read_text())
     # the interface's keys after the two every JSON output begins with
     assert list(result) == ["schema_version", "versions", "law", "parameters",
-                            "static_drive_force_N", "points"]
+                            "static_drive_force_N", "points", "static_convergence",
+                            "all_converged"]
+    assert list(result["static_convergence"]) == list(CONVERGENCE_KEYS)
     assert result["law"] == "dahl"
     assert result["static_drive_force_N"] == pytest.approx(11.04, rel=1e-3)
-    assert [list(p) for p in result["points"]] == [list(POINT_KEYS)] * 3
+    assert [list(p) for p in result["points"]] == [list(POINT_KEYS + CONVERGENCE_KEYS)] * 3
+    assert result["all_converged"] and all(p["converged"] for p in result["points"])
     ratios = [p["ratio"] for p in result["points"]]
     # Done-when of issue 2: reduction without sign change at 0.75 mm/s, with sign changes at
     # 3 mm/s, more than 20-fold at large kappa

@@ -24,8 +24,9 @@ from vibrofriction.python_law import (ContactParameters, act_dyn_callback, bare_
 def test_python_dahl_matches_native_plugin(va):
     rig = RigParameters(vibration_velocity_amplitude_m_per_s=va)
     friction = default_friction("dahl", rig)
-    python = simulate_python_law(rig, friction, dahl_zdot, timestep_s=1e-6)
-    native = rig_module.simulate(rig, friction, timestep_s=1e-6)
+    duration, _ = rig_module.default_times(rig, friction)  # the same fixed run for both
+    python = simulate_python_law(rig, friction, dahl_zdot, timestep_s=1e-6, duration_s=duration)
+    native = rig_module.simulate(rig, friction, timestep_s=1e-6, duration_s=duration)
     assert python.summary().mean_drive_force_N == pytest.approx(
         native.summary().mean_drive_force_N, rel=0.01)
     assert python.summary().sign_change is native.summary().sign_change

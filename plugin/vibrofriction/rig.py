@@ -7,9 +7,9 @@ runs the model natively with ``mujoco.rollout`` (sensors recorded every step).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import TYPE_CHECKING, Callable, Sequence
 
 import mujoco
 import numpy as np
@@ -19,6 +19,9 @@ from ._native import load
 from .params import (VIBRATION_RAMP_PERIODS, FrictionParameters, ParameterError, RigParameters,
                      _plain)
 from .summary import RunSummary, summarize
+
+if TYPE_CHECKING:
+    from .steady import Convergence
 
 MJCF_DIR = Path(__file__).resolve().parent / "mjcf_models"
 RIG_DIR = MJCF_DIR / "rig"
@@ -175,6 +178,7 @@ class RigRun:
     drive_force_N: np.ndarray  # the drive actuator's force on the slider (spring + damper)
     normal_force_N: np.ndarray
     dynamometer_force_N: np.ndarray  # the spring's force alone: what a dynamometer in it reads
+    convergence: "Convergence | None" = None  # a run to steady state: how it settled
 
     @property
     def period_s(self) -> float:
@@ -263,7 +267,8 @@ def initial_state(model: mujoco.MjModel, data: mujoco.MjData | None = None) -> n
 def simulate(rig: RigParameters, friction: FrictionParameters, *,
              duration_s: float | None = None, timestep_s: float = DEFAULT_TIMESTEP_S,
              settle_time_s: float | None = None) -> RigRun:
-    """One run of the rig from rest (spring unloaded, z = 0)."""
+    """One run of the rig from rest (spring unloaded, z = 0): until its mean drive force has
+    converged (``steady.run_until_steady``; ``convergence`` says how), or ``duration_s``."""
     return simulate_many([(rig, friction)], duration_s=duration_s, timestep_s=timestep_s,
                          settle_time_s=settle_time_s)[0]
 
@@ -274,13 +279,24 @@ def simulate_many(cases: Sequence[tuple[RigParameters, FrictionParameters]], *,
                   progress: Callable[[int, int], None] | None = None) -> list[RigRun]:
     """Run several rigs in parallel on rollout threads (one model per case, same structure).
 
-    Cases are run in groups so that ``progress(done, total)`` can report; the duration is the
-    longest default over the cases unless given.
+    Without ``duration_s`` each case runs until its own mean drive force has converged
+    (``steady.run_until_steady``), so its result does not depend on the batch. With it, every
+    case runs that long and is averaged after ``settle_time_s`` (default: the longest transient
+    guess of ``default_times``); cases are run in groups so that ``progress(done, total)`` can
+    report.
     """
     if not cases:
         return []
+    if duration_s is None:
+        if settle_time_s is not None:
+            raise ParameterError("settle_time_s needs duration_s: a run to steady state "
+                                 "averages over windows after its own transient")
+        from .steady import run_until_steady
+        results = run_until_steady(cases, timesteps=[timestep_s] * len(cases),
+                                   keep_series=True, nthread=nthread, progress=progress)
+        return [replace(r.run, convergence=r.convergence) for r in results]
     times = [default_times(r, f) for r, f in cases]
-    duration = duration_s if duration_s is not None else max(t[0] for t in times)
+    duration = duration_s
     settle = settle_time_s if settle_time_s is not None else max(t[1] for t in times)
     if not (duration > 0 and math.isfinite(duration)):
         raise ParameterError(f"duration {_plain(duration)!r} must be a positive number of "
@@ -309,7 +325,6 @@ def simulate_many(cases: Sequence[tuple[RigParameters, FrictionParameters]], *,
 def static_drive_force(rig: RigParameters, friction: FrictionParameters, *,
                        timestep_s: float = DEFAULT_TIMESTEP_S) -> float:
     """F_d-s: mean drive force of the same rig without vibration."""
-    from dataclasses import replace
     still = replace(rig, vibration_velocity_amplitude_m_per_s=0.0)
     return simulate(still, friction, timestep_s=timestep_s).summary().mean_drive_force_N
 

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import argparse
 import math
-from dataclasses import asdict, replace
+import sys
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +20,8 @@ from ..cli import UsageError, add_common_arguments, parse_overrides, write_json
 from ..datasets import (MIN_SAMPLE_INTERVAL_S, Dataset, DatasetMetadata, all_or_nothing,
                         sidecar_path, write_dataset)
 from ..params import FrictionParameters, RigParameters, apply_overrides, as_dict, default_friction
+from ..steady import DEFAULT_MAX_DURATION_S, DEFAULT_TOLERANCE, SteadyRun, longest_run_s
+from ..sweep import convergence_fields, run_cases, unconverged_line
 
 MAX_STEPS = 5e8  # steps of one run: hours of wall time and gigabytes of recorded series
 
@@ -38,13 +41,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
-    """--duration and --settle, shared with ``sweep``."""
+    """--duration, --settle, --tolerance and --max-duration, shared with ``sweep``."""
     parser.add_argument("--duration", type=str, default=None, metavar="S",
-                        help="simulated time in seconds (default: two loadings to breakaway "
-                             "+ 30 ms transient + 40 ms averaging window)")
+                        help="simulated time in seconds; without it each run goes on until "
+                             "its mean drive force over windows of whole periods has "
+                             "converged (--tolerance), at most --max-duration")
     parser.add_argument("--settle", type=str, default=None, metavar="S",
-                        help="start of the averaging window in seconds (default: two loadings "
-                             "to breakaway + 30 ms, or half of a shorter --duration)")
+                        help="with --duration: start of the averaging window in seconds "
+                             "(default: two loadings to breakaway + 30 ms, or half of a "
+                             "shorter --duration)")
+    parser.add_argument("--tolerance", type=str, default=None, metavar="REL",
+                        help="relative change of the mean drive force between successive "
+                             "windows, and estimated distance to its limit, at which a run "
+                             f"has converged (default {DEFAULT_TOLERANCE:g})")
+    parser.add_argument("--max-duration", dest="max_duration", type=str, default=None,
+                        metavar="S",
+                        help="longest simulated time of a run that has not converged "
+                             f"(default {DEFAULT_MAX_DURATION_S:g} s); such a run is flagged "
+                             '"converged": false')
 
 
 def positive_seconds(text: str | float | None, option: str) -> float | None:
@@ -71,16 +85,42 @@ def parameters_from_args(args: argparse.Namespace) -> tuple[RigParameters, Frict
     return apply_overrides(rig, friction, overrides)
 
 
+@dataclass(frozen=True)
+class RunSettings:
+    """How the runs of one command are timed. ``duration_s`` None: run to steady state."""
+
+    timestep_s: float | None
+    duration_s: float | None
+    settle_time_s: float | None
+    tolerance: float
+    max_duration_s: float | None
+
+
 def run_settings(args: argparse.Namespace, cases: list[tuple[RigParameters, FrictionParameters]]
-                 ) -> tuple[float, float, float]:
-    """(timestep_s, duration_s, settle_time_s) from the options and the cases' defaults."""
+                 ) -> RunSettings:
+    """The run settings from the options and the cases' defaults, checked."""
     timestep = positive_seconds(args.timestep, "--timestep")
+    duration = positive_seconds(args.duration, "--duration")
+    settle = positive_seconds(args.settle, "--settle")
+    tolerance = positive_seconds(args.tolerance, "--tolerance")
+    max_duration = positive_seconds(args.max_duration, "--max-duration")
+    tolerance = DEFAULT_TOLERANCE if tolerance is None else tolerance
+    if duration is None:
+        if settle is not None:
+            raise UsageError("--settle needs --duration: without it each run averages over "
+                             "windows after its transient and goes on until they agree")
+        for rig, friction in cases:
+            dt = timestep if timestep is not None else rig_module.recommended_timestep(rig)
+            longest = longest_run_s(rig, friction, max_duration)
+            if longest / dt > MAX_STEPS:
+                raise UsageError(_too_many_steps(args, [(rig, friction)], longest, dt))
+        return RunSettings(timestep, None, None, tolerance, max_duration)
+    if args.max_duration is not None:
+        raise UsageError("--max-duration applies to runs to steady state; with --duration "
+                         "every run is that long")
     if timestep is None:  # the finest the cases recommend (one timestep for a rollout batch)
         timestep = min(rig_module.recommended_timestep(r) for r, _ in cases)
     defaults = [rig_module.default_times(r, f) for r, f in cases]
-    duration = positive_seconds(args.duration, "--duration")
-    settle = positive_seconds(args.settle, "--settle")
-    duration = max(d for d, _ in defaults) if duration is None else duration
     if settle is None:
         settle = max(s for _, s in defaults)
         if settle >= duration:  # a short --duration: average over its second half
@@ -98,7 +138,7 @@ def run_settings(args: argparse.Namespace, cases: list[tuple[RigParameters, Fric
     if timestep > duration:
         raise UsageError(f"--timestep {_g(timestep)} s is longer than --duration "
                          f"{_g(duration)} s")
-    return timestep, duration, settle
+    return RunSettings(timestep, duration, settle, tolerance, None)
 
 
 def _too_many_steps(args: argparse.Namespace,
@@ -110,25 +150,28 @@ def _too_many_steps(args: argparse.Namespace,
     if args.duration is not None:
         long_text = f"--duration {_g(duration)} s"
         fixes.append("a shorter --duration")
-    else:  # the longest default: two loadings of the drive spring to breakaway + 70 ms
+    else:  # a run to steady state: at most --max-duration, at least the transient + windows
         rig, friction = max(cases, key=lambda c: rig_module.default_times(*c)[0])
-        long_text = f"the default duration {_g(duration)} s"
-        fixes.append("--duration S")
+        long_text = f"a run to steady state of up to {_g(duration)} s"
         staged = rig.vibration_from_s > 0 and rig.vibration_velocity_amplitude_m_per_s > 0
+        transient = rig_module.default_times(rig, friction)[1]
         if staged and rig.vibration_from_s > 0.5 * duration:  # the still stage made it long
             long_text += (f" (the still stage vibration_from_s={_g(rig.vibration_from_s)} s, "
-                          "the vibration's build-up, then the transient and the window)")
+                          "the vibration's build-up, then the transient and the windows)")
             fixes.append("--set a smaller vibration_from_s")
-        elif duration > 1.0:  # not the usual tenth of a second: say what made it long
+        elif transient > 0.5 * duration:  # the loadings to breakaway made it long
             long_text += (
                 " (two loadings of the drive spring to breakaway, 2 friction_coefficient "
                 "normal_force_N static_ratio / (drive_stiffness_N_per_m "
                 f"drive_velocity_m_per_s) = 2*{_g(friction.friction_coefficient)}*"
                 f"{_g(rig.normal_force_N)}*{_g(friction.static_ratio)}/"
                 f"({_g(rig.drive_stiffness_N_per_m)}*{_g(abs(rig.drive_velocity_m_per_s))}), "
-                "plus 70 ms)")
+                "plus 30 ms and the windows)")
             fixes.append("--set a smaller normal_force_N or a larger drive_velocity_m_per_s "
                          "or drive_stiffness_N_per_m")
+        else:  # the maximum time itself
+            fixes.append("a shorter --max-duration" if args.max_duration is not None
+                         else "--max-duration S")
     if args.timestep is not None:
         step_text = f"--timestep {_g(timestep)} s"
         fixes.append("a larger --timestep")
@@ -158,25 +201,24 @@ def _g(value: float) -> str:
     return f"{float(value):.6g}"
 
 
-def summary_fields(run: rig_module.RigRun, settle_time_s: float,
-                   static_drive_force_N: float | None) -> dict[str, Any]:
-    """The summary of one run under the names of the sweep's points (interfaces.md)."""
-    s = run.summary(settle_time_s)
+def summary_fields(result: SteadyRun, static_drive_force_N: float | None) -> dict[str, Any]:
+    """The summary of one run under the names of the sweep's points (interfaces.md), with
+    its convergence."""
+    s = result.summary
     ratio = None
     if static_drive_force_N is not None and static_drive_force_N != 0:
         ratio = s.mean_drive_force_N / static_drive_force_N
     return {
-        "vibration_velocity_amplitude_m_per_s": run.rig.vibration_velocity_amplitude_m_per_s,
-        "kappa": run.rig.kappa,
+        "vibration_velocity_amplitude_m_per_s": result.rig.vibration_velocity_amplitude_m_per_s,
+        "kappa": result.rig.kappa,
         "mean_drive_force_N": s.mean_drive_force_N,
         "ratio": ratio,
         "friction_min_N": s.friction_min_N,
         "friction_max_N": s.friction_max_N,
         "sign_change": s.sign_change,
         "mean_friction_force_N": s.mean_friction_force_N,
-        "window_start_s": s.window_start_s,
-        "window_end_s": s.window_end_s,
         "periods_averaged": s.periods_averaged,
+        **convergence_fields(result.timestep_s, s, result.convergence),
     }
 
 
@@ -212,32 +254,46 @@ def run(args: argparse.Namespace) -> int:
     cases = [(rig, friction)]
     if args.static:
         cases.append((replace(rig, vibration_velocity_amplitude_m_per_s=0.0), friction))
-    timestep, duration, settle = run_settings(args, cases)
+    settings = run_settings(args, cases)
+    # A run to steady state without --timestep uses the rig's recommended one.
+    timestep = (settings.timestep_s if settings.timestep_s is not None
+                else rig_module.recommended_timestep(rig))
     if args.csv_path is not None and timestep < MIN_SAMPLE_INTERVAL_S:
         raise UsageError(f"--csv {args.csv_path}: a record sampled every {_g(timestep)} s "
                          f"(the timestep) is finer than the {MIN_SAMPLE_INTERVAL_S:g} s a "
                          "dataset accepts; use a larger --timestep or leave out --csv")
-    runs = rig_module.simulate_many(cases, duration_s=duration, timestep_s=timestep,
-                                    settle_time_s=settle)
-    static = runs[1].summary(settle).mean_drive_force_N if args.static else None
+    results = run_cases(cases, timestep_s=settings.timestep_s, duration_s=settings.duration_s,
+                        settle_time_s=settings.settle_time_s, tolerance=settings.tolerance,
+                        max_duration_s=settings.max_duration_s,
+                        keep_series=args.csv_path is not None)
+    main = results[0]
+    static = results[1].summary.mean_drive_force_N if args.static else None
     payload: dict[str, Any] = {
         "law": friction.law,
         "parameters": as_dict(rig, friction),
-        "timestep_s": timestep,
-        "duration_s": duration,
-        "settle_time_s": settle,
+        "timestep_s": main.timestep_s,
+        "duration_s": (main.convergence.simulated_s if settings.duration_s is None
+                       else settings.duration_s),
+        "settle_time_s": (main.summary.window_start_s if settings.settle_time_s is None
+                          else settings.settle_time_s),
         "static_drive_force_N": static,
-        **summary_fields(runs[0], settle, static),
+        **summary_fields(main, static),
+        "static_convergence": (None if not args.static else convergence_fields(
+            results[1].timestep_s, results[1].summary, results[1].convergence)),
         "csv": None if args.csv_path is None else str(args.csv_path),
     }
     with all_or_nothing():  # the CSV, its sidecar and the JSON: all of them or none
         if args.csv_path is not None:
             name = sidecar_path(args.csv_path).stem
-            write_dataset(dataset_of(runs[0], name), args.csv_path)
+            write_dataset(dataset_of(main.run, name), args.csv_path)
         if args.json_path is not None:
             write_json(args.json_path, payload)
     if args.json_path is None:
         write_json(None, payload)
+    for result, label in zip(results, ("the run", "the static run")):
+        if not result.convergence.converged:
+            print(unconverged_line("simulate", label, result.convergence,
+                                   fixed=settings.duration_s is not None), file=sys.stderr)
     return 0
 
 

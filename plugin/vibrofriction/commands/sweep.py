@@ -8,10 +8,11 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from dataclasses import replace
 
 from ..cli import UsageError, add_common_arguments, write_json
-from ..sweep import sweep
+from ..sweep import sweep, unconverged_lines
 from .simulate import add_run_arguments, parameters_from_args, run_settings
 
 HELP = ("master curve: mean drive force over the vibration velocity amplitudes --va "
@@ -59,8 +60,12 @@ def run(args: argparse.Namespace) -> int:
              for va in [0.0, *amplitudes]]
     for case_rig, _ in cases:
         case_rig.validate()
-    timestep, duration, settle = run_settings(args, cases)
-    result = sweep(rig, friction, amplitudes, timestep_s=timestep, duration_s=duration,
-                   settle_time_s=settle, nthread=args.threads, scheduler=args.scheduler)
+    settings = run_settings(args, cases)
+    result = sweep(rig, friction, amplitudes, timestep_s=settings.timestep_s,
+                   duration_s=settings.duration_s, settle_time_s=settings.settle_time_s,
+                   tolerance=settings.tolerance, max_duration_s=settings.max_duration_s,
+                   nthread=args.threads, scheduler=args.scheduler)
     write_json(args.json_path, result)
+    for line in unconverged_lines(result, fixed=settings.duration_s is not None):
+        print(line, file=sys.stderr)
     return 0

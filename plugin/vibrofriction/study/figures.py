@@ -45,6 +45,10 @@ class MasterPoint:
     friction_max_N: float
     sign_change: bool
     kinematic_ratio: float
+    converged: bool = True  # the run to steady state (vibrofriction.steady)
+    estimated_remaining_error: float = 0.0  # relative, of mean_drive_force_N
+    window_start_s: float = math.nan  # the averaging window of mean_drive_force_N
+    window_end_s: float = math.nan
 
     @property
     def ratio(self) -> float:
@@ -64,6 +68,9 @@ class MasterPoint:
             "ratio": self.ratio,
             "friction_min_N": self.friction_min_N, "friction_max_N": self.friction_max_N,
             "sign_change": self.sign_change, "kinematic_ratio": self.kinematic_ratio,
+            "converged": self.converged,
+            "estimated_remaining_error": self.estimated_remaining_error,
+            "window_start_s": self.window_start_s, "window_end_s": self.window_end_s,
         }
 
 
@@ -100,7 +107,10 @@ def compute_master(config: StudyConfig, base: RigParameters, laws: Sequence[str]
             mean_drive_force_N=p.summary.mean_drive_force_N, static_drive_force_N=fds,
             friction_min_N=p.summary.friction_min_N, friction_max_N=p.summary.friction_max_N,
             sign_change=p.summary.sign_change,
-            kinematic_ratio=float(kin[law][k % len(kappas)]) if law in kin else math.nan))
+            kinematic_ratio=float(kin[law][k % len(kappas)]) if law in kin else math.nan,
+            converged=p.convergence.converged,
+            estimated_remaining_error=p.convergence.estimated_remaining_error,
+            window_start_s=p.summary.window_start_s, window_end_s=p.summary.window_end_s))
     return out
 
 

@@ -1,9 +1,9 @@
-"""Running many rig cases for the study: timestep rule, shared durations, summaries only.
+"""Running many rig cases for the study: timestep rule, runs to steady state, summaries only.
 
-Cases are grouped by timestep (``StudyConfig.timestep``) and run together on MuJoCo's rollout
-threads (``rig.simulate_many``). Every case of one call gets the same duration and averaging
-window -- the longest default over the cases (``rig.default_times``) -- so a number does not
-depend on which cases happened to run beside it.
+Each case runs at its timestep (``StudyConfig.timestep``) until its mean drive force has
+converged (``steady.run_until_steady``: Hann-weighted windows of whole periods after the
+transient, within 0.1 %), so a number does not depend on which cases happened to run beside
+it. Cases are run together on MuJoCo's rollout threads, a few at a time.
 """
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from .. import rig as rig_module
 from ..params import FrictionParameters, RigParameters
+from ..steady import Convergence, run_until_steady
 from ..summary import RunSummary
 from .config import STATIC_TIMESTEP_S, StudyConfig
 
@@ -25,52 +25,36 @@ _CHUNK = 8
 
 @dataclass(frozen=True)
 class Point:
-    """Summary of one run, with what defines it."""
+    """Summary of one run to steady state, with what defines it and how it converged."""
 
     rig: RigParameters
     friction: FrictionParameters
     timestep_s: float
     summary: RunSummary
+    convergence: Convergence
 
     @property
     def mean_drive_force_N(self) -> float:
         return self.summary.mean_drive_force_N
 
 
-def shared_times(cases: Sequence[Case]) -> tuple[float, float]:
-    """(duration_s, settle_time_s) shared by ``cases``: the longest defaults."""
-    times = [rig_module.default_times(r, f) for r, f in cases]
-    return max(t[0] for t in times), max(t[1] for t in times)
-
-
 def run_points(cases: Sequence[Case], config: StudyConfig, *,
                timesteps: Sequence[float] | None = None,
-               times: tuple[float, float] | None = None,
                progress: Progress | None = None) -> list[Point]:
     """Summaries of ``cases`` (in order), each at its timestep (rule or ``timesteps``)."""
     if not cases:
         return []
     dts = list(timesteps) if timesteps is not None else [config.timestep(r) for r, _ in cases]
-    duration, settle = times if times is not None else shared_times(cases)
     order = sorted(range(len(cases)), key=lambda i: -dts[i])  # coarse (fast) runs first
     out: list[Point | None] = [None] * len(cases)
-    done = 0
-    start = 0
-    while start < len(order):
-        dt = dts[order[start]]
-        stop = start
-        while stop < len(order) and stop - start < _CHUNK and dts[order[stop]] == dt:
-            stop += 1
-        idx = order[start:stop]
-        runs = rig_module.simulate_many([cases[i] for i in idx], duration_s=duration,
-                                        timestep_s=dt, settle_time_s=settle)
-        for i, run in zip(idx, runs):
-            out[i] = Point(rig=run.rig, friction=run.friction, timestep_s=dt,
-                           summary=run.summary())
-        done += len(idx)
+    for start in range(0, len(order), _CHUNK):
+        idx = order[start:start + _CHUNK]
+        results = run_until_steady([cases[i] for i in idx], timesteps=[dts[i] for i in idx])
+        for i, r in zip(idx, results):
+            out[i] = Point(rig=r.rig, friction=r.friction, timestep_s=r.timestep_s,
+                           summary=r.summary, convergence=r.convergence)
         if progress:
-            progress(done, len(cases))
-        start = stop
+            progress(min(start + _CHUNK, len(order)), len(cases))
     return [p for p in out if p is not None]
 
 
@@ -147,19 +131,19 @@ class Trace:
 
 def run_traces(cases: Sequence[Case], config: StudyConfig, *, periods: int,
                progress: Progress | None = None) -> list[Trace]:
-    """Runs of ``cases`` keeping the last ``periods`` vibration periods of their time series."""
-    duration, settle = shared_times(cases)
+    """Runs of ``cases`` to steady state keeping the last ``periods`` vibration periods of
+    their time series (those of the reported window's end)."""
     statics = static_forces(cases, config)
     out: list[Trace] = []
     for k, ((r, f), fds) in enumerate(zip(cases, statics)):
         dt = config.timestep(r)
-        run = rig_module.simulate_many([(r, f)], duration_s=duration, timestep_s=dt,
-                                       settle_time_s=settle)[0]
+        result = run_until_steady([(r, f)], timesteps=[dt], keep_series=True)[0]
+        run = result.run
         t = run.time_s
         period = run.period_s if run.period_s > 0 else 2.5e-4
         keep = t >= t[-1] - periods * period - 0.5 * dt
         out.append(Trace(
-            rig=r, friction=f, timestep_s=dt, summary=run.summary(),
+            rig=r, friction=f, timestep_s=dt, summary=result.summary,
             static_drive_force_N=fds,
             time_s=t[keep] - t[keep][0],
             slider_position_m=run.slider_position_m[keep],
@@ -175,5 +159,4 @@ def run_traces(cases: Sequence[Case], config: StudyConfig, *, periods: int,
     return out
 
 
-__all__ = ["Point", "Trace", "run_points", "run_traces", "static_forces", "static_cases",
-           "shared_times"]
+__all__ = ["Point", "Trace", "run_points", "run_traces", "static_forces", "static_cases"]

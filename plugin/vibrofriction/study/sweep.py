@@ -4,9 +4,9 @@ Runs locally on MuJoCo's rollout threads by default; with ``scheduler="HOST:PORT
 ``dask.distributed.Client``) the same chunks go to an existing Dask cluster. Dask is an
 optional extra (``pip install vibrofriction[dask]``) and is imported only then.
 
-Both paths run identical chunks with one shared duration and averaging window, and each case's
-result depends only on its own parameters, so a distributed sweep returns the same numbers as
-the local one.
+Both paths run identical chunks, each case to its own steady state (``steady``), so each
+case's result depends only on its own parameters and a distributed sweep returns the same
+numbers as the local one.
 """
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ from typing import Any, Callable, Sequence
 from ..errors import InputError
 from ..params import FrictionParameters, RigParameters
 from .config import STATIC_TIMESTEP_S, StudyConfig, friction_for, study_timestep
-from .runner import Case, Progress, run_points, shared_times
+from .runner import Case, Progress, run_points
 
 # Cases per task: large enough to keep rollout threads busy, small enough to spread work.
 DEFAULT_CHUNK_SIZE = 8
@@ -57,13 +57,11 @@ class SweepGrid:
 
 @dataclass(frozen=True)
 class SweepTask:
-    """One chunk of work: cases with one timestep, duration and window (picklable)."""
+    """One chunk of work: cases with one timestep, each run to steady state (picklable)."""
 
     indices: tuple[int, ...]
     cases: tuple[Case, ...]
     timestep_s: float
-    duration_s: float
-    settle_time_s: float
 
 
 @dataclass(frozen=True)
@@ -80,6 +78,8 @@ class SweepRecord:
     friction_min_N: float
     friction_max_N: float
     sign_change: bool
+    converged: bool
+    estimated_remaining_error: float
 
     @property
     def ratio(self) -> float:
@@ -119,8 +119,7 @@ def grid_cases(grid: SweepGrid, config: StudyConfig) -> tuple[list[Case], list[C
 
 def make_tasks(cases: Sequence[Case], config: StudyConfig, *, chunk_size: int,
                static: bool = False) -> list[SweepTask]:
-    """Chunks of cases sharing a timestep, with the sweep's one duration and window."""
-    duration, settle = shared_times(cases)
+    """Chunks of cases sharing a timestep."""
     dts = [STATIC_TIMESTEP_S if static else config.timestep(r) for r, _ in cases]
     tasks: list[SweepTask] = []
     for dt in sorted(set(dts), reverse=True):
@@ -128,17 +127,19 @@ def make_tasks(cases: Sequence[Case], config: StudyConfig, *, chunk_size: int,
         for start in range(0, len(idx), chunk_size):
             part = tuple(idx[start:start + chunk_size])
             tasks.append(SweepTask(indices=part, cases=tuple(cases[i] for i in part),
-                                   timestep_s=dt, duration_s=duration, settle_time_s=settle))
+                                   timestep_s=dt))
     return tasks
 
 
-def run_task(task: SweepTask) -> list[tuple[int, float, float, float, float, bool]]:
-    """Run one chunk (also on a Dask worker): (index, dt, mean F_d, F_min, F_max, sign)."""
+def run_task(task: SweepTask) -> list[tuple[int, float, float, float, float, bool, bool,
+                                             float]]:
+    """Run one chunk (also on a Dask worker): (index, dt, mean F_d, F_min, F_max, sign,
+    converged, estimated remaining error)."""
     config = StudyConfig(timestep_s=task.timestep_s)
-    points = run_points(list(task.cases), config, timesteps=[task.timestep_s] * len(task.cases),
-                        times=(task.duration_s, task.settle_time_s))
+    points = run_points(list(task.cases), config, timesteps=[task.timestep_s] * len(task.cases))
     return [(i, p.timestep_s, p.summary.mean_drive_force_N, p.summary.friction_min_N,
-             p.summary.friction_max_N, p.summary.sign_change)
+             p.summary.friction_max_N, p.summary.sign_change, p.convergence.converged,
+             p.convergence.estimated_remaining_error)
             for i, p in zip(task.indices, points)]
 
 
@@ -217,7 +218,7 @@ def run_sweep(grid: SweepGrid, config: StudyConfig, *, scheduler: Any = None,
     per_static = len(grid.kappas)
     records = []
     for i, (r, f) in enumerate(cases):
-        _, dt, mean, fmin, fmax, sign = by_index[i]
+        _, dt, mean, fmin, fmax, sign, converged, remaining = by_index[i]
         records.append(SweepRecord(
             kappa=r.kappa, vibration_velocity_amplitude_m_per_s=r.vibration_velocity_amplitude_m_per_s,
             vibration_frequency_Hz=r.vibration_frequency_Hz,
@@ -225,7 +226,8 @@ def run_sweep(grid: SweepGrid, config: StudyConfig, *, scheduler: Any = None,
             normal_force_N=r.normal_force_N, friction_coefficient=f.friction_coefficient,
             timestep_s=dt, mean_drive_force_N=mean,
             static_drive_force_N=static_force[i // per_static], friction_min_N=fmin,
-            friction_max_N=fmax, sign_change=bool(sign)))
+            friction_max_N=fmax, sign_change=bool(sign), converged=bool(converged),
+            estimated_remaining_error=float(remaining)))
     return SweepResult(grid=grid, records=records, engine=engine, wall_s=wall)
 
 
