@@ -6,8 +6,8 @@ whole vibration periods, about 40 ms long and a multiple of 48 periods (so that 
 -4 and -6 responses average over whole cycles), one quarter of a window apart. Each mean is
 Hann-weighted: for a periodic response it equals the plain mean over the whole periods, and
 an oscillation that does not fit the window a whole number of times -- the slider ringing on
-the drive spring, which nothing damps while it slides -- leaks into it a thousand times less
-than into a plain mean. Window k's mean m_k is compared with the two before it:
+the drive spring, which nothing damps while it slides -- leaks into it k^2 - 1 times less than
+into a plain mean, k the cycles in the window (about 9 for the paper's rig: 80 times less). Window k's mean m_k is compared with the two before it:
 
 * ``relative_change`` = |m_k - m_{k-1}| / |m_k|;
 * ``estimated_remaining_error``: the distance to the limit if the means approach it

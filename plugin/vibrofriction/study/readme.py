@@ -46,6 +46,19 @@ def _claims_table(claims: dict) -> list[str]:
     return lines
 
 
+def _convergence(claims: dict) -> list[str]:
+    """The study's steady-state line (claims.json of a reproduce run that has it)."""
+    c = claims.get("convergence")
+    if c is None:
+        return []
+    text = (f"Every mean drive force is a run to steady state (`vibrofriction.steady`): "
+            f"{c['converged']} of {c['runs']} runs converged to 0.1 %")
+    if c["unconverged"]:
+        text += "; not converged: " + "; ".join(
+            f"{u['set']} {u['law']} kappa_v {u['kappa']:g}" for u in c["unconverged"])
+    return [text + ". The built-in comparison runs fixed lengths: it compares timesteps.", ""]
+
+
 def _builtin_table(builtin_md: str) -> list[str]:
     return [line for line in builtin_md.splitlines() if line.startswith("|")]
 
@@ -71,6 +84,7 @@ def write_readme_section(results: Path, docs: Path, *, figure_prefix: str = "fig
         "`scripts/fig_*.py` (one per figure) or `vibrofriction reproduce`; this section: "
         "`python scripts/fig_readme.py --results results`.",
         "",
+        *_convergence(claims),
         figures[0], "", figures[1], "",
         "### The paper's claims, with this run's numbers",
         "",
