@@ -187,14 +187,17 @@ def run_until_steady(cases: Sequence[Case], *, timesteps: Sequence[float] | None
                           first_window_s=settle, window_s=window, max_duration_s=limit,
                           state=rig_module.initial_state(model), forces=np.empty((0, 2))))
     results: list[SteadyRun | None] = [None] * len(cases)
-    # Rollout runs models of one structure together: group by state and sensor sizes.
-    groups: dict[tuple[int, int], list[_Case]] = {}
+    # Rollout runs models of one structure for one number of steps together: group by state
+    # and sensor sizes and by timestep (a common step count would run a coarse case for as
+    # many steps as the finest one needs).
+    groups: dict[tuple[int, int, float], list[_Case]] = {}
     for c in todo:
-        groups.setdefault((c.state.size, c.model.nsensordata), []).append(c)
+        groups.setdefault((c.state.size, c.model.nsensordata, c.timestep_s), []).append(c)
     finished = 0
     threads = nthread if nthread is not None else rig_module._cpu_count()
     for group in groups.values():
-        pool_threads = min(threads, len(group)) if len(group) > 1 else 0
+        # One thread: step in the calling thread (no pool), as a single case does.
+        pool_threads = min(threads, len(group)) if len(group) > 1 and threads > 1 else 0
         with mj_rollout.Rollout(nthread=pool_threads) as pool:
             active = list(group)
             first = True
