@@ -101,6 +101,8 @@ CASES = [
      "--duration 1e+06 s at --timestep 0.001 s is 1e+09 steps"),
     # the run to steady state and its options
     (["simulate", "--settle", "0.01"], "--settle needs --duration"),
+    (["simulate", "--timestep", "0.05"], "timestep 0.05 s is too coarse to average over "
+     "windows"),
     (["sweep", "--va", "1e-3", "--tolerance", "0"], "--tolerance '0' must be a finite number"),
     (["simulate", "--max-duration", "nan"], "--max-duration 'nan' must be a finite number"),
     (["simulate", "--max-duration", "1", *SHORT], "--max-duration applies to runs to steady "

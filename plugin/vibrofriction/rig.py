@@ -179,6 +179,7 @@ class RigRun:
     normal_force_N: np.ndarray
     dynamometer_force_N: np.ndarray  # the spring's force alone: what a dynamometer in it reads
     convergence: "Convergence | None" = None  # a run to steady state: how it settled
+    steady_summary: RunSummary | None = None  # ... and the summary it was judged on
 
     @property
     def period_s(self) -> float:
@@ -186,6 +187,10 @@ class RigRun:
         return 1.0 / f if f > 0 and self.rig.vibration_velocity_amplitude_m_per_s > 0 else 0.0
 
     def summary(self, settle_time_s: float | None = None) -> RunSummary:
+        """Means over whole periods after ``settle_time_s``; without it, for a run to steady
+        state, the converged window's (Hann-weighted) summary."""
+        if settle_time_s is None and self.steady_summary is not None:
+            return self.steady_summary
         settle = self.settle_time_s if settle_time_s is None else settle_time_s
         return summarize(self.time_s, self.drive_force_N, self.friction_force_N, self.period_s,
                          settle)
@@ -294,7 +299,8 @@ def simulate_many(cases: Sequence[tuple[RigParameters, FrictionParameters]], *,
         from .steady import run_until_steady
         results = run_until_steady(cases, timesteps=[timestep_s] * len(cases),
                                    keep_series=True, nthread=nthread, progress=progress)
-        return [replace(r.run, convergence=r.convergence) for r in results]
+        return [replace(r.run, convergence=r.convergence, steady_summary=r.summary)
+                for r in results]
     times = [default_times(r, f) for r, f in cases]
     duration = duration_s
     settle = settle_time_s if settle_time_s is not None else max(t[1] for t in times)

@@ -39,7 +39,9 @@ WINDOW_TARGET_S = 0.04
 # also in the quarter window the windows slide by.
 SUBHARMONIC_PERIODS = 12
 HOPS_PER_WINDOW = 4
-MIN_WINDOWS = 3  # two differences: a change and its trend
+MIN_WINDOWS = 3  # non-overlapping windows judged together: a change and its trend
+_FIRST_DECISION = (MIN_WINDOWS - 1) * HOPS_PER_WINDOW  # index of the first judged window
+_MAX_CHUNK_STEPS = 1 << 20  # rollout returns every step's state: bound its memory
 DEFAULT_MAX_DURATION_S = 2.0  # a soft drive spring's slow mode needs about a second
 
 Case = tuple[RigParameters, FrictionParameters]
@@ -99,23 +101,27 @@ def longest_run_s(rig: RigParameters, friction: FrictionParameters,
     """The most a case runs: ``max_duration_s`` (default DEFAULT_MAX_DURATION_S), at least the
     transient guess and MIN_WINDOWS windows."""
     limit = DEFAULT_MAX_DURATION_S if max_duration_s is None else max_duration_s
-    window = window_length_s(rig)
-    return max(limit, rig_module.default_times(rig, friction)[1] + window
-               + (MIN_WINDOWS - 1) * window / HOPS_PER_WINDOW)
+    return max(limit, rig_module.default_times(rig, friction)[1]
+               + MIN_WINDOWS * window_length_s(rig))
 
 
 def hann_mean(time_s: np.ndarray, y: np.ndarray, start_s: float, end_s: float) -> float:
     """Hann-weighted mean of the samples in [start_s, end_s] (module docstring)."""
     inside = (time_s >= start_s) & (time_s <= end_s)
     weight = 1.0 - np.cos(2.0 * np.pi * (time_s[inside] - start_s) / (end_s - start_s))
-    return float(np.dot(weight, y[inside]) / weight.sum())
+    total = weight.sum()
+    if not total > 0:
+        raise ValueError(f"no samples inside the window [{start_s:g}, {end_s:g}] s")
+    return float(np.dot(weight, y[inside]) / total)
 
 
-def judge(means: Sequence[float], tolerance: float) -> tuple[bool, float, float]:
-    """(converged, relative_change, estimated_remaining_error) after the last of ``means``."""
-    if len(means) < MIN_WINDOWS:
+def judge(means: Sequence[float], tolerance: float, spacing: int = 1
+          ) -> tuple[bool, float, float]:
+    """(converged, relative_change, estimated_remaining_error) after the last of ``means``,
+    compared with the means ``spacing`` and 2 ``spacing`` before it."""
+    if len(means) < 2 * spacing + 1:
         return False, math.inf, math.inf
-    m_prev2, m_prev, m_last = means[-3], means[-2], means[-1]
+    m_prev2, m_prev, m_last = means[-1 - 2 * spacing], means[-1 - spacing], means[-1]
     scale = abs(m_last)
     if scale == 0:
         scale = max(abs(m_prev), abs(m_prev2), 1e-300)
@@ -177,8 +183,15 @@ def run_until_steady(cases: Sequence[Case], *, timesteps: Sequence[float] | None
                              "number of seconds")
     dts = (list(timesteps) if timesteps is not None
            else [rig_module.recommended_timestep(r) for r, _ in cases])
+    if len(dts) != len(cases):
+        raise ValueError(f"{len(dts)} timesteps for {len(cases)} cases")
     todo: list[_Case] = []
     for i, ((r, f), dt) in enumerate(zip(cases, dts)):
+        if not (dt > 0 and dt <= window_length_s(r) / HOPS_PER_WINDOW / 10):
+            raise ParameterError(
+                f"timestep {_plain(dt)} s is too coarse to average over windows of "
+                f"{window_length_s(r):.4g} s (at most a tenth of a quarter window); use a "
+                "smaller --timestep")
         model = rig_module.build_model(r, f, dt)
         settle = rig_module.default_times(r, f)[1]
         window = window_length_s(r)
@@ -202,9 +215,10 @@ def run_until_steady(cases: Sequence[Case], *, timesteps: Sequence[float] | None
             active = list(group)
             first = True
             while active:
-                if first:  # straight to every case's first decision
-                    nstep = max(math.ceil(c.window(MIN_WINDOWS - 1)[1] / c.timestep_s) + 1
-                                for c in active)
+                if first:  # straight to every case's first decision (at most _MAX_CHUNK)
+                    nstep = min(_MAX_CHUNK_STEPS, max(
+                        math.ceil(c.window(_FIRST_DECISION)[1] / c.timestep_s) + 1
+                        for c in active))
                     first = False
                 else:  # one more window of the case with the most steps per window
                     nstep = max(math.ceil(c.window_s / HOPS_PER_WINDOW / c.timestep_s) + 1
@@ -215,6 +229,7 @@ def run_until_steady(cases: Sequence[Case], *, timesteps: Sequence[float] | None
                                                      nstep=nstep)
                 still = []
                 for k, c in enumerate(active):
+                    _check_finite(c, state_out[k, -1], sensordata[k], nstep)
                     c.state = state_out[k, -1].copy()
                     if keep_series:
                         c.series.append(sensordata[k].copy())
@@ -232,6 +247,20 @@ def run_until_steady(cases: Sequence[Case], *, timesteps: Sequence[float] | None
                         progress(finished, len(cases))
                 active = still
     return [r for r in results if r is not None]
+
+
+def _check_finite(c: _Case, last_state: np.ndarray, sensordata: np.ndarray, nstep: int) -> None:
+    """A run that diverged (non-finite values, or MuJoCo's reset after a warning, which sets
+    the time back) has no steady state: one message, not a number."""
+    expected_time = (c.steps + nstep) * c.timestep_s
+    if np.all(np.isfinite(sensordata)) and math.isclose(last_state[0], expected_time,
+                                                        rel_tol=1e-9, abs_tol=1e-12):
+        return
+    raise ParameterError(
+        f"the run of law {c.friction.law} at vibration_velocity_amplitude_m_per_s="
+        f"{_plain(c.rig.vibration_velocity_amplitude_m_per_s)} diverged within "
+        f"{expected_time:.4g} s at timestep {c.timestep_s:.4g} s (MuJoCo warned and reset it, or "
+        "a value is not finite); use a smaller --timestep or check the parameters")
 
 
 def _force_columns(model: mujoco.MjModel, sensordata: np.ndarray) -> np.ndarray:
@@ -252,12 +281,13 @@ def _advance(c: _Case, tolerance: float) -> SteadyRun | None:
         if end > t_last + 1e-12 or end > c.max_duration_s + 1e-12:
             break
         c.means.append(hann_mean(time_s, c.forces[:, 0], start, end))
-        verdict = judge(c.means, tolerance)
+        verdict = judge(c.means, tolerance, HOPS_PER_WINDOW)
         if verdict[0]:
             return _result(c, time_s, verdict, tolerance)
     if c.window(len(c.means))[1] > c.max_duration_s + 1e-12:
-        return _result(c, time_s, judge(c.means, tolerance), tolerance)
+        return _result(c, time_s, judge(c.means, tolerance, HOPS_PER_WINDOW), tolerance)
     # Keep the samples from the last judged window on: the next window and a final summary.
+    # (The older means stay: the judgement compares windows a whole window apart.)
     keep_from = c.window(max(0, len(c.means) - 1))[0]
     drop = max(0, int(np.searchsorted(time_s, keep_from, side="right")) - 2)
     c.forces = c.forces[drop:]
@@ -299,11 +329,10 @@ def convergence_of_run(run: rig_module.RigRun, settle_time_s: float,
     """The same judgement for a run of fixed length: the last MIN_WINDOWS windows that fit
     between ``settle_time_s`` and the run's end (not converged when fewer fit)."""
     window = window_length_s(run.rig)
-    hop = window / HOPS_PER_WINDOW
     end = float(run.time_s[-1])
-    fit = int(math.floor((end - settle_time_s - window) / hop + 1e-9)) + 1
+    fit = int(math.floor((end - settle_time_s) / window + 1e-9))
     count = max(0, min(fit, MIN_WINDOWS))
-    means = [hann_mean(run.time_s, run.drive_force_N, end - window - j * hop, end - j * hop)
+    means = [hann_mean(run.time_s, run.drive_force_N, end - (j + 1) * window, end - j * window)
              for j in reversed(range(count))]
     converged, change, remaining = judge(means, tolerance)
     return Convergence(converged=converged, tolerance=tolerance, window_s=window,

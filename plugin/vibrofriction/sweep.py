@@ -67,8 +67,13 @@ def sweep(rig: RigParameters, friction: FrictionParameters, amplitudes: list[flo
         results = run_cases(cases, nthread=nthread, progress=report, **settings)
     else:
         from .study.sweep import dask_map
-        if duration_s is not None and timestep_s is None:  # one timestep, as locally
-            settings["timestep_s"] = min(rig_module.recommended_timestep(r) for r, _ in cases)
+        if duration_s is not None:  # one timestep and window for all, as locally
+            if timestep_s is None:
+                settings["timestep_s"] = min(rig_module.recommended_timestep(r)
+                                             for r, _ in cases)
+            if settle_time_s is None:
+                settings["settle_time_s"] = max(rig_module.default_times(r, f)[1]
+                                                for r, f in cases)
         results = dask_map(_case_result, [(r, f, settings) for r, f in cases], scheduler,
                            progress=report)
     static = results[0].summary.mean_drive_force_N

@@ -57,20 +57,22 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-duration", dest="max_duration", type=str, default=None,
                         metavar="S",
                         help="longest simulated time of a run that has not converged "
-                             f"(default {DEFAULT_MAX_DURATION_S:g} s); such a run is flagged "
+                             f"(default {DEFAULT_MAX_DURATION_S:g} s; at least the transient "
+                             "and three windows); such a run is flagged "
                              '"converged": false')
 
 
-def positive_seconds(text: str | float | None, option: str) -> float | None:
-    """Parse a positive, finite number of seconds; None stays None."""
+def positive_seconds(text: str | float | None, option: str,
+                     unit: str = "seconds") -> float | None:
+    """Parse a positive, finite number (of ``unit``); None stays None."""
     if text is None:
         return None
     try:
         value = float(text)
     except ValueError:
-        raise UsageError(f"{option} {text!r} is not a number of seconds") from None
+        raise UsageError(f"{option} {text!r} is not a number of {unit}") from None
     if not (math.isfinite(value) and value > 0):
-        raise UsageError(f"{option} {text!r} must be a finite number of seconds > 0")
+        raise UsageError(f"{option} {text!r} must be a finite number of {unit} > 0")
     return value
 
 
@@ -102,7 +104,7 @@ def run_settings(args: argparse.Namespace, cases: list[tuple[RigParameters, Fric
     timestep = positive_seconds(args.timestep, "--timestep")
     duration = positive_seconds(args.duration, "--duration")
     settle = positive_seconds(args.settle, "--settle")
-    tolerance = positive_seconds(args.tolerance, "--tolerance")
+    tolerance = positive_seconds(args.tolerance, "--tolerance", "relative error")
     max_duration = positive_seconds(args.max_duration, "--max-duration")
     tolerance = DEFAULT_TOLERANCE if tolerance is None else tolerance
     if duration is None:

@@ -118,6 +118,8 @@ def _oracle_check(results: StudyResults, worst_below: float) -> dict[str, Any] |
     friction = results.config.friction_for(p.law, rig, EXPERIMENT_FIG14.contact_stiffness_N_per_m)
     # The oracle over the plugin run's own converged window (the same Hann-weighted mean).
     start, end = p.window_start_s, p.window_end_s
+    if not (math.isfinite(start) and math.isfinite(end)):
+        return None
     ref = reference.simulate_reference(rig, friction, end + 1e-4, sample_dt_s=2e-6)
     oracle_mean = hann_mean(ref.time_s, ref.drive_force_N, start, end)
     kt = friction.contact_stiffness_N_per_m
@@ -518,15 +520,17 @@ def convergence_summary(results: StudyResults) -> dict[str, Any]:
         ("stiffness", p) for p in results.stiffness.points]
     if results.sweep is not None:
         runs += [("grid_sweep", r) for r in results.sweep.records]
-    bad = [{"set": name, "law": getattr(p, "law", "dahl"), "kappa": p.kappa,
+    grid_law = results.sweep.grid.law if results.sweep is not None else None
+    bad = [{"set": name, "law": getattr(p, "law", grid_law), "kappa": p.kappa,
             "estimated_remaining_error": p.estimated_remaining_error}
            for name, p in runs if not p.converged]
     return {"runs": len(runs), "converged": len(runs) - len(bad), "unconverged": bad}
 
 
 def _convergence_line(summary: dict[str, Any]) -> str:
-    text = (f"Steady state: {summary['converged']} of {summary['runs']} mean-force runs "
-            "converged to 0.1 % (each run goes on until it does, at most 2 s)")
+    text = (f"Steady state: {summary['converged']} of {summary['runs']} points converged to "
+            "0.1 %, each its run and its static run (each run goes on until it does, at most "
+            "2 s)")
     if not summary["unconverged"]:
         return text + "."
     return text + "; not converged: " + "; ".join(

@@ -21,7 +21,7 @@ from .config import (EXPERIMENT_FIG13, EXPERIMENT_FIG14, MM_PER_S, N_PER_UM,
                      STIFFNESS_PROFILE_VIBRATION_VELOCITY_M_PER_S,
                      TRACE_VIBRATION_VELOCITIES_M_PER_S, ExperimentConfig, StudyConfig)
 from .output import LAW_COLORS, LAW_LABELS, new_figure, save_figure, write_csv
-from .runner import Case, Progress, Trace, run_points, run_traces, static_forces
+from .runner import Case, Progress, Trace, run_points, run_traces, static_points
 
 UM = 1e-6
 
@@ -45,10 +45,10 @@ class MasterPoint:
     friction_max_N: float
     sign_change: bool
     kinematic_ratio: float
-    converged: bool = True  # the run to steady state (vibrofriction.steady)
-    estimated_remaining_error: float = 0.0  # relative, of mean_drive_force_N
-    window_start_s: float = math.nan  # the averaging window of mean_drive_force_N
-    window_end_s: float = math.nan
+    converged: bool  # the run and its static run reached steady state (vibrofriction.steady)
+    estimated_remaining_error: float  # relative, of mean_drive_force_N
+    window_start_s: float  # the averaging window of mean_drive_force_N
+    window_end_s: float
 
     @property
     def ratio(self) -> float:
@@ -86,7 +86,7 @@ def compute_master(config: StudyConfig, base: RigParameters, laws: Sequence[str]
                         * base.drive_velocity_m_per_s).validate()
             cases.append((r, config.friction_for(law, r, contact_stiffness_N_per_m)))
     points = run_points(cases, config, progress=progress)
-    statics = static_forces(cases, config)
+    statics = static_points(cases, config)
     kin: dict[str, np.ndarray] = {}
     if kinematic:
         for law in laws:
@@ -104,12 +104,14 @@ def compute_master(config: StudyConfig, base: RigParameters, laws: Sequence[str]
             vibration_frequency_Hz=r.vibration_frequency_Hz,
             drive_velocity_m_per_s=r.drive_velocity_m_per_s, normal_force_N=r.normal_force_N,
             contact_stiffness_N_per_m=f.contact_stiffness_N_per_m, timestep_s=p.timestep_s,
-            mean_drive_force_N=p.summary.mean_drive_force_N, static_drive_force_N=fds,
+            mean_drive_force_N=p.summary.mean_drive_force_N,
+            static_drive_force_N=fds.mean_drive_force_N,
             friction_min_N=p.summary.friction_min_N, friction_max_N=p.summary.friction_max_N,
             sign_change=p.summary.sign_change,
             kinematic_ratio=float(kin[law][k % len(kappas)]) if law in kin else math.nan,
-            converged=p.convergence.converged,
-            estimated_remaining_error=p.convergence.estimated_remaining_error,
+            converged=p.convergence.converged and fds.convergence.converged,
+            estimated_remaining_error=max(p.convergence.estimated_remaining_error,
+                                          fds.convergence.estimated_remaining_error),
             window_start_s=p.summary.window_start_s, window_end_s=p.summary.window_end_s))
     return out
 

@@ -52,7 +52,8 @@ def _convergence(claims: dict) -> list[str]:
     if c is None:
         return []
     text = (f"Every mean drive force is a run to steady state (`vibrofriction.steady`): "
-            f"{c['converged']} of {c['runs']} runs converged to 0.1 %")
+            f"{c['converged']} of {c['runs']} points converged to 0.1 %, each its run and its "
+            "static run")
     if c["unconverged"]:
         text += "; not converged: " + "; ".join(
             f"{u['set']} {u['law']} kappa_v {u['kappa']:g}" for u in c["unconverged"])

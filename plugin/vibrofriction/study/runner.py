@@ -63,9 +63,9 @@ def static_cases(cases: Sequence[Case]) -> list[Case]:
     return [(replace(r, vibration_velocity_amplitude_m_per_s=0.0), f) for r, f in cases]
 
 
-def static_forces(cases: Sequence[Case], config: StudyConfig, *,
-                  progress: Progress | None = None) -> list[float]:
-    """F_d-s of each case: mean drive force of the same rig without vibration.
+def static_points(cases: Sequence[Case], config: StudyConfig, *,
+                  progress: Progress | None = None) -> list[Point]:
+    """The run without vibration of each case (F_d-s and its convergence).
 
     Identical static rigs are run once.
     """
@@ -79,7 +79,13 @@ def static_forces(cases: Sequence[Case], config: StudyConfig, *,
             todo.append((r, f))
     points = run_points(todo, config, timesteps=[STATIC_TIMESTEP_S] * len(todo),
                         progress=progress)
-    return [points[unique[(r, f)]].mean_drive_force_N for r, f in statics]
+    return [points[unique[(r, f)]] for r, f in statics]
+
+
+def static_forces(cases: Sequence[Case], config: StudyConfig, *,
+                  progress: Progress | None = None) -> list[float]:
+    """F_d-s of each case: mean drive force of the same rig without vibration."""
+    return [p.mean_drive_force_N for p in static_points(cases, config, progress=progress)]
 
 
 @dataclass(frozen=True)
@@ -159,4 +165,5 @@ def run_traces(cases: Sequence[Case], config: StudyConfig, *, periods: int,
     return out
 
 
-__all__ = ["Point", "Trace", "run_points", "run_traces", "static_forces", "static_cases"]
+__all__ = ["Point", "Trace", "run_points", "run_traces", "static_forces", "static_points",
+           "static_cases"]

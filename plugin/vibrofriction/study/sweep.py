@@ -78,7 +78,7 @@ class SweepRecord:
     friction_min_N: float
     friction_max_N: float
     sign_change: bool
-    converged: bool
+    converged: bool  # the run and its static run reached steady state
     estimated_remaining_error: float
 
     @property
@@ -215,10 +215,12 @@ def run_sweep(grid: SweepGrid, config: StudyConfig, *, scheduler: Any = None,
     wall = time.perf_counter() - start
     by_index = {row[0]: row for row in raw}
     static_force = {row[0]: row[2] for row in raw_static}
+    static_steady = {row[0]: (row[6], row[7]) for row in raw_static}
     per_static = len(grid.kappas)
     records = []
     for i, (r, f) in enumerate(cases):
         _, dt, mean, fmin, fmax, sign, converged, remaining = by_index[i]
+        static_converged, static_remaining = static_steady[i // per_static]
         records.append(SweepRecord(
             kappa=r.kappa, vibration_velocity_amplitude_m_per_s=r.vibration_velocity_amplitude_m_per_s,
             vibration_frequency_Hz=r.vibration_frequency_Hz,
@@ -226,8 +228,9 @@ def run_sweep(grid: SweepGrid, config: StudyConfig, *, scheduler: Any = None,
             normal_force_N=r.normal_force_N, friction_coefficient=f.friction_coefficient,
             timestep_s=dt, mean_drive_force_N=mean,
             static_drive_force_N=static_force[i // per_static], friction_min_N=fmin,
-            friction_max_N=fmax, sign_change=bool(sign), converged=bool(converged),
-            estimated_remaining_error=float(remaining)))
+            friction_max_N=fmax, sign_change=bool(sign),
+            converged=bool(converged and static_converged),
+            estimated_remaining_error=float(max(remaining, static_remaining))))
     return SweepResult(grid=grid, records=records, engine=engine, wall_s=wall)
 
 
