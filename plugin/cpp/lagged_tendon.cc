@@ -41,8 +41,7 @@ bool LaggedTendonConfig::FromModel(const mjModel* m, int instance, LaggedTendonC
 void LaggedTendon::Compute(const mjModel* m, mjData* d, int instance) {
   const mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
   const bool valid = config_.Refresh(m, instance);
-  for (int s = 0; s < m->nsensor; ++s) {
-    if (m->sensor_plugin[s] != instance) continue;
+  for (int s : sensors_.Of(m, instance)) {
     mjtNum* out = d->sensordata + m->sensor_adr[s];
     *out = valid ? Reading(m, d, state) : 0.0;
   }

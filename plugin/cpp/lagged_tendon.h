@@ -45,6 +45,7 @@ class LaggedTendon {
   // The reading at this step: the lag advanced from the last step to this step's length.
   double Reading(const mjModel* m, const mjData* d, const mjtNum* state) const;
   CachedConfig<LaggedTendonConfig> config_;
+  InstanceSensors sensors_;
 };
 
 }  // namespace vibrofriction

@@ -234,6 +234,31 @@ struct StepResponseWorkspace {
 StepResponse ComputeStepResponse(const mjModel* m, mjData* d, int out,
                                  StepResponseWorkspace* workspace);
 
+// The sensors backed by one plugin instance, found once per model: scanning all of nsensor in
+// every step of every instance made a model with N elements cost O(N^2) a step. Rescanned when
+// the model pointer or its sensor count changes, or a cached id no longer names the instance.
+class InstanceSensors {
+ public:
+  const std::vector<int>& Of(const mjModel* m, int instance) {
+    bool valid = m == model_ && m->nsensor == nsensor_;
+    for (int s : ids_) valid = valid && s < m->nsensor && m->sensor_plugin[s] == instance;
+    if (!valid) {
+      model_ = m;
+      nsensor_ = m->nsensor;
+      ids_.clear();
+      for (int s = 0; s < m->nsensor; ++s) {
+        if (m->sensor_plugin[s] == instance) ids_.push_back(s);
+      }
+    }
+    return ids_;
+  }
+
+ private:
+  const mjModel* model_ = nullptr;  // compared, never dereferenced
+  int nsensor_ = -1;
+  std::vector<int> ids_;
+};
+
 }  // namespace vibrofriction
 
 #endif  // VIBROFRICTION_PLUGIN_UTIL_H_

@@ -89,8 +89,7 @@ class StateSensor {
   static int StateSize(const mjModel* m, int instance) { return 0; }
 
   void Compute(const mjModel* m, mjData* d, int instance) {
-    for (int s = 0; s < m->nsensor; ++s) {
-      if (m->sensor_plugin[s] != instance) continue;
+    for (int s : sensors_.Of(m, instance)) {
       mjtNum* out = d->sensordata + m->sensor_adr[s];
       if (config_.Refresh(m, instance)) {
         config_->write(m, d, config_->element, out);
@@ -117,6 +116,7 @@ class StateSensor {
 
  private:
   CachedConfig<SensorConfig> config_;
+  InstanceSensors sensors_;
 };
 
 }  // namespace
