@@ -43,12 +43,10 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import argparse
 import json
 import math
-import platform
 import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 
 import mujoco
 import numpy as np
@@ -58,6 +56,9 @@ import vibrofriction
 from vibrofriction import rig as rig_module
 from vibrofriction import robots
 from vibrofriction.params import RigParameters, default_friction
+
+# The same CPU timer and machine description as the per-step benchmark (run from scripts/).
+from bench_plugin import _cpu_seconds, machine
 
 # Plugins that are a friction element, and the state sensors that read one.
 ELEMENT_PLUGINS = ("vibrofriction.friction", "vibrofriction.planar", "vibrofriction.averaged")
@@ -79,14 +80,6 @@ COPIES_MIN_RUN_S = 0.2
 COPIES_WINDOW_STEPS = 1000  # ~20 vibration periods, the same window for every N
 COPY_PREFIX = "rig"
 LINEAR_TOLERANCE_PCT = 10.0  # above the run-to-run noise of a best-of-runs time
-
-
-def _cpu_seconds(work: Callable[[], object]) -> float:
-    """CPU time of this thread: rollout with one MjData steps in the calling thread, so other
-    processes on a shared machine do not inflate it (wall time would)."""
-    start = time.thread_time()
-    work()
-    return time.thread_time() - start
 
 
 def _check_warnings(data: mujoco.MjData, what: str) -> None:
@@ -411,18 +404,6 @@ def markdown(result: dict) -> str:
                  f"{c['element_over_bare_rig_pct']:.0f} % of a bare rig's "
                  f"{c['fit']['bare']['b_ns']:.0f} ns")
     return "\n".join(lines)
-
-
-def machine() -> dict:
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as info:
-            cpu = next(line.split(":", 1)[1].strip() for line in info
-                       if line.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
-    return {"cpu": cpu, "python": platform.python_version(), "mujoco": mujoco.__version__,
-            "vibrofriction": vibrofriction.__version__}
 
 
 def main(argv: list[str] | None = None) -> int:

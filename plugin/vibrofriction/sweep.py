@@ -100,9 +100,10 @@ def sweep(rig: RigParameters, friction: FrictionParameters, amplitudes: list[flo
 def convergence_fields(timestep_s: float, summary: RunSummary,
                        convergence: Convergence) -> dict[str, Any]:
     """A point's convergence in its JSON: flagged, with the window and the error estimate."""
+    as_json = convergence.as_dict()  # infinities as null
     return {"converged": convergence.converged,
-            "estimated_remaining_error": convergence.as_dict()["estimated_remaining_error"],
-            "relative_change": convergence.as_dict()["relative_change"],
+            "estimated_remaining_error": as_json["estimated_remaining_error"],
+            "relative_change": as_json["relative_change"],
             "window_start_s": summary.window_start_s, "window_end_s": summary.window_end_s,
             "windows": convergence.windows, "window_s": convergence.window_s,
             "tolerance": convergence.tolerance,
