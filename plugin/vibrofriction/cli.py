@@ -35,7 +35,7 @@ class UsageError(InputError):
 
 
 def add_common_arguments(parser: argparse.ArgumentParser, *, law: bool = True) -> None:
-    """Options every command shares (interfaces.md)."""
+    """Options every command shares (docs/interfaces.md)."""
     parser.add_argument("--set", dest="overrides", action="append", default=[],
                         metavar="NAME=VALUE",
                         help="override a parameter (repeatable), e.g. --set mass_kg=0.5")

@@ -5,7 +5,7 @@ rollout threads (one model per case). By default each case runs at its own recom
 timestep until its mean drive force has converged (``steady.run_until_steady``), so a point is
 the same alone or in any sweep; with ``duration_s`` every case runs that long at one timestep
 and the convergence of its last windows is reported. The result is the JSON object of
-``vibrofriction sweep`` (interfaces.md), each point with its convergence.
+``vibrofriction sweep`` (docs/interfaces.md), each point with its convergence.
 """
 from __future__ import annotations
 
@@ -55,7 +55,7 @@ def sweep(rig: RigParameters, friction: FrictionParameters, amplitudes: list[flo
           settle_time_s: float | None = None, tolerance: float = DEFAULT_TOLERANCE,
           max_duration_s: float | None = None, nthread: int | None = None,
           progress: bool = True, scheduler: Any = None) -> dict[str, Any]:
-    """Run the sweep; return the interfaces.md JSON object. Local rollout threads, or with
+    """Run the sweep; return the docs/interfaces.md JSON object. Local rollout threads, or with
     ``scheduler`` (a Dask address or Client) one task per amplitude on that cluster."""
     cases = [(replace(rig, vibration_velocity_amplitude_m_per_s=0.0), friction)]
     cases += [(replace(rig, vibration_velocity_amplitude_m_per_s=va), friction)

@@ -1,8 +1,8 @@
 """``vibrofriction identify DATA [--validate DATA]... [--law LAW] [--out DIR]``.
 
 Fits the friction law (the plugin's C++ code) to a measured record, traces the residual to the
-effects of the vocabulary, selects those the data justify and writes report.json (interfaces.md),
-report.md and figures to DIR. Progress goes to stderr.
+effects of the vocabulary, selects those the data justify and writes report.json
+(docs/interfaces.md), report.md and figures to DIR. Progress goes to stderr.
 """
 from __future__ import annotations
 

@@ -204,7 +204,7 @@ def _g(value: float) -> str:
 
 
 def summary_fields(result: SteadyRun, static_drive_force_N: float | None) -> dict[str, Any]:
-    """The summary of one run under the names of the sweep's points (interfaces.md), with
+    """The summary of one run under the names of the sweep's points (docs/interfaces.md), with
     its convergence."""
     s = result.summary
     ratio = None

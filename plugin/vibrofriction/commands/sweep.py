@@ -2,7 +2,7 @@
 
 Every amplitude and the static run (v_a = 0, giving F_d-s) are simulated in parallel on
 MuJoCo rollout threads (one model per case) with a progress bar on stderr. The JSON is
-interfaces.md's: ``{"law", "parameters", "static_drive_force_N", "points": [...]}``.
+docs/interfaces.md's: ``{"law", "parameters", "static_drive_force_N", "points": [...]}``.
 """
 from __future__ import annotations
 

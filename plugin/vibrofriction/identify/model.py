@@ -26,7 +26,7 @@ from ..laws import run_law
 from ..params import LIMITS, FrictionParameters
 from .record import Record
 
-# The identification vocabulary (interfaces.md), in the order candidates are listed.
+# The identification vocabulary (docs/interfaces.md), in the order candidates are listed.
 EFFECTS = ("viscous", "stribeck", "asymmetry", "position_ripple", "normal_force_modulation",
            "drive_damping", "sensor_lag", "force_offset")
 

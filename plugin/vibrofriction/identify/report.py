@@ -1,4 +1,4 @@
-"""report.json (interfaces.md, exactly), report.md and the figures, written atomically."""
+"""report.json (docs/interfaces.md, exactly), report.md and the figures, written atomically."""
 from __future__ import annotations
 
 import dataclasses
