@@ -8,6 +8,7 @@ gives the stiffness within 1 % and the rest within 5 %.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import replace
 
 import mujoco
@@ -268,3 +269,50 @@ def test_replay_refuses_an_undersampled_vibration_and_a_foreign_timestep() -> No
                   metadata=replace(dataset.metadata, simulation_timestep_s=3e-6))
     with pytest.raises(InputError, match="simulation_timestep_s"):
         prepare_replay(odd)
+
+
+def test_a_vibrating_sensor_record_is_replayed_on_a_grid_that_slides_along_the_vibration():
+    """100 kHz samples of a 4 kHz vibration: 25 a period. A whole number of steps a sample
+    would repeat every period (its discretization error would not average out); the replay
+    takes N + 0.382 steps a period and reads the samples between steps. A record a simulator
+    made keeps its own step."""
+    from vibrofriction import synthetic
+    from vibrofriction.rig import STEP_PHASE_SLIDE
+    record = synthetic.lab_record(synthetic.lab_scenario(None))
+    replay = prepare_replay(record)
+    period_steps = 1.0 / (record.metadata.vibration_frequency_Hz * replay.timestep_s)
+    assert period_steps - math.floor(period_steps) == pytest.approx(STEP_PHASE_SLIDE, abs=1e-6)
+    assert replay.steps_per_sample != replay.substeps
+    # the step rows cover the last sample, and a quantity linear in time comes back exactly
+    rows = np.arange(replay.nstep, dtype=float)[:, None] * replay.timestep_s
+    assert replay.nstep * replay.timestep_s >= replay.time_s[-1] - replay.time_s[0]
+    np.testing.assert_allclose(replay.at_samples(rows)[:, 0], replay.time_s - replay.time_s[0],
+                               rtol=0, atol=1e-12)
+    halved = replay.halved()
+    assert halved.steps_per_sample == pytest.approx(2 * replay.steps_per_sample)
+    assert len(halved.control) == halved.nstep
+    simulated = prepare_replay(dataset_of(rig.simulate(
+        RigParameters(), FrictionParameters(law="dahl"), duration_s=0.01), "dahl"))
+    assert simulated.timestep_from_record and simulated.steps_per_sample == simulated.substeps
+
+
+def test_the_true_values_replay_a_strongly_vibrated_lab_record_to_its_noise():
+    """The lab scenario (LuGre, v_a/v_d = 20: the mean friction a small difference of large
+    alternating forces) made by the scipy reference: at the true values the replay's drive
+    force misses the record by its sensor noise (0.05 N) and its position by a few nm (noise
+    1 nm). On a grid repeating every period the slider sat 33 nm behind the record from the
+    vibration's start on, 3.2e-8 m rms (docs/physics.md)."""
+    from vibrofriction import synthetic
+    scenario = replace(synthetic.lab_scenario(None), duration_s=0.1)
+    record = synthetic.lab_record(scenario)
+    replay = prepare_replay(record)
+    friction = replace(scenario.friction, sensor_lag_s=0.0)
+    with Replayer(replay) as runner:
+        out = runner.run([(replay.rig, friction, {"initial_velocity_m_per_s": 0.0})])[0]
+    late = replay.time_s >= scenario.rig.vibration_from_s + 0.01
+    force_rms = np.sqrt(np.mean((out["drive_force_N"] - replay.measured["drive_force_N"])[late]
+                                ** 2))
+    position_rms = np.sqrt(np.mean((out["position_m"] - replay.measured["position_m"])[late]
+                                   ** 2))
+    assert force_rms <= 1.1 * scenario.noise.force_N
+    assert position_rms <= 1e-8

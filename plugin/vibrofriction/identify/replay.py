@@ -25,7 +25,10 @@ z = F / k_t, inside the elastic range).
 Each sample interval is cut into ``substeps`` MuJoCo steps (default: the record's own
 ``simulation_timestep_s`` when a simulator made it, else the fewest that give at least
 ``MIN_STEPS_PER_PERIOD`` steps a vibration period; identification then refines the timestep
-until it converges). Many parameter sets run at once on
+until it converges). A vibrating sensor record is stepped on a grid that slides along the
+vibration (about ``substeps`` steps a sample, N + 0.382 a period: ``sliding_timestep``) and
+its samples are read between steps; a lab's sample rate is usually a multiple of the vibration
+frequency, and a grid repeating every period repeats its discretization error too. Many parameter sets run at once on
 ``mujoco.rollout`` threads, one model each (a finite-difference Jacobian is one call).
 """
 from __future__ import annotations
@@ -72,12 +75,32 @@ class SampleGrid:
         return len(self.time_s)
 
     @property
+    def steps_per_sample(self) -> float:
+        """MuJoCo steps per sample interval: ``substeps``, or (a vibrating record replayed on
+        a step grid that slides along the vibration, ``RigReplay.sliding_steps_per_sample``)
+        a fraction more."""
+        return float(self.substeps)
+
+    @property
     def nstep(self) -> int:
-        return (self.n - 1) * self.substeps + 1
+        if self.steps_per_sample == self.substeps:
+            return (self.n - 1) * self.substeps + 1
+        return int(math.floor((self.n - 1) * self.steps_per_sample)) + 2
 
     @property
     def channels(self) -> tuple[str, ...]:
         return tuple(self.measured)
+
+    def at_samples(self, rows: np.ndarray) -> np.ndarray:
+        """Rollout rows (row k at the k-th step's start, nstep x ...) at the record's sample
+        times: every ``substeps``-th row, or, on a sliding grid, linearly interpolated between
+        the two steps around each sample (second order in the step)."""
+        if self.steps_per_sample == self.substeps:
+            return rows[0:self.nstep:self.substeps]
+        position = np.arange(self.n) * self.steps_per_sample
+        k = np.minimum(np.floor(position).astype(int), self.nstep - 2)
+        w = (position - k).reshape((-1,) + (1,) * (rows.ndim - 1))
+        return (1.0 - w) * rows[k] + w * rows[k + 1]
 
 
 def uniform_times(dataset: Dataset, where: str, sample_dt: Callable[[np.ndarray], float]
@@ -135,6 +158,13 @@ class RigReplay(SampleGrid):
     initial_friction_N: float
     vibrating: bool
     timestep_from_record: bool = False  # substeps from the sidecar's simulation_timestep_s
+    # a vibrating sensor record: steps per sample on a grid that slides along the vibration
+    # (``sliding_timestep``); None: exactly ``substeps``
+    sliding_steps_per_sample: float | None = None
+
+    @property
+    def steps_per_sample(self) -> float:
+        return self.sliding_steps_per_sample or float(self.substeps)
 
     @property
     def estimated_state(self) -> tuple[str, ...]:
@@ -177,8 +207,10 @@ class RigReplay(SampleGrid):
         out = np.empty((2 * len(c), c.shape[1]))
         out[0::2] = 0.5 * (previous + c)
         out[1::2] = c
-        return replace(self, substeps=2 * self.substeps, timestep_s=self.timestep_s / 2,
-                       control=out[:2 * (self.nstep - 1) + 1])
+        sliding = self.sliding_steps_per_sample
+        half = replace(self, substeps=2 * self.substeps, timestep_s=self.timestep_s / 2,
+                       sliding_steps_per_sample=2 * sliding if sliding else None, control=out)
+        return replace(half, control=out[:half.nstep])
 
     def outputs(self, model: mujoco.MjModel, rig: RigParameters, sensordata: np.ndarray,
                 names: Sequence[str]) -> dict[str, np.ndarray]:
@@ -247,7 +279,6 @@ class Replayer:
         models = [replay.model(case[0], case[1], *([case[3]] if len(case) > 3 and case[3]
                                                    else []))
                   for case in cases]
-        rows = slice(0, replay.nstep, replay.substeps)
         names = list(replay.channels) + [c for c in extra if c not in replay.channels]
         out: list[dict[str, np.ndarray] | None] = [None] * len(models)
         # One rollout per state size (a sensor lag adds a plugin state).
@@ -268,7 +299,8 @@ class Replayer:
                                                np.ascontiguousarray(control),
                                                nstep=replay.nstep)
             for k, i in enumerate(members):
-                out[i] = replay.outputs(models[i], cases[i][0], sensordata[k, rows], names)
+                out[i] = replay.outputs(models[i], cases[i][0],
+                                        replay.at_samples(sensordata[k]), names)
         self.simulations += len(models)
         return out
 
@@ -338,10 +370,15 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
         raise InputError(f"substeps {substeps} must lie in 1..64")
     substeps = int(substeps)
     timestep = sample_dt / substeps
+    sliding = None
+    if vibrating and not from_record:
+        timestep = sliding_timestep(sample_dt, substeps, frequency)
+        sliding = sample_dt / timestep
     # Support displacement at every step's end (the motion actuator's ctrl): the measured
     # position's cubic spline, else the exact integral of the measured velocity's (trapezoid
     # sums lose ~(w dt)^2/12 of the amplitude: 0.5 % at 25 samples a period).
-    nstep = (len(t) - 1) * substeps + 1
+    nstep = (len(t) - 1) * substeps + 1 if sliding is None else \
+        int(math.floor((len(t) - 1) * sliding)) + 2
     step_ends = t[0] + timestep * np.arange(1, nstep + 1)
     if "support_position_m" in columns:
         support_position = np.asarray(columns["support_position_m"], dtype=float)
@@ -405,7 +442,18 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
         initial_support_position_m=float(support_position[0]),
         initial_support_velocity_m_per_s=float(support_velocity[0]),
         initial_drive_end_m=drive_end0, initial_friction_N=friction0, vibrating=vibrating,
-        timestep_from_record=from_record)
+        timestep_from_record=from_record, sliding_steps_per_sample=sliding)
+
+
+def sliding_timestep(sample_dt: float, substeps: int, frequency_Hz: float) -> float:
+    """About ``substeps`` steps a sample, as N + 0.382 steps a vibration period
+    (``rig.period_timestep``). A lab's sample rate is usually a multiple of the vibration
+    frequency; on a step grid that repeats every period the element's discretization error
+    repeats too and does not average out: measured on the lab scenario (LuGre, v_a/v_d = 20,
+    the mean drive force), +8.9 % at 50 steps a period against +0.23 % at 50.382
+    (docs/physics.md, scripts/check_strong_vibration_timestep.py)."""
+    steps = max(1, round(substeps / (frequency_Hz * sample_dt)))
+    return rig_module.period_timestep(frequency_Hz, steps)
 
 
 def substeps_of_record(dataset: Dataset, sample_dt: float,
