@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Master curves F_d-v/F_d-s against kappa_v = v_a/v_d of the four laws at the paper's
 simulation parameters (Gutowski & Leus 2012, section 4), with the kinematic (heavy-body)
-limits of each law, the arcsin law and Dahl's vanishing-amplitude limit (physics.md)."""
+limits of each law, the arcsin law and Dahl's vanishing-amplitude limit (docs/physics.md)."""
 from __future__ import annotations
 
 import sys

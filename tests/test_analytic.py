@@ -8,7 +8,7 @@ from scipy.integrate import quad, solve_ivp
 from vibrofriction import analytic
 from vibrofriction.params import RigParameters, default_friction
 
-# LuGre standard set (Canudas de Wit et al. 1995), physics.md.
+# LuGre standard set (Canudas de Wit et al. 1995), docs/physics.md.
 LUGRE = dict(sigma0=1e5, sigma2=0.4, Fc=1.0, Fs=1.5, vs=1e-3)
 
 

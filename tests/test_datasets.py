@@ -1,4 +1,4 @@
-"""Dataset format (../shared/notes/dataset-format.md): round trip, derived signals, bad input."""
+"""Dataset format (docs/dataset-format.md): round trip, derived signals, bad input."""
 from __future__ import annotations
 
 import gzip

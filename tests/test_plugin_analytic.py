@@ -1,5 +1,5 @@
-"""Analytic anchors of physics.md: the laws along prescribed motions (laws.run_law, the plugin's
-own C++ code) and the full MuJoCo rig with a heavy slider against the kinematic-limit formulas.
+"""Analytic anchors of docs/physics.md: the laws along prescribed motions (laws.run_law, the
+plugin's own C++ code) and the full MuJoCo rig with a heavy slider against the kinematic-limit formulas.
 
 f = F_mean/(mu F_N), xi = v_d/v_a, eps = k_t u0/(mu F_N).
 
@@ -54,7 +54,7 @@ def arcsin_law(xi: float) -> float:
 
 def dahl_vanishing_amplitude(xi: float, alpha: float) -> float:
     """Dahl as eps -> 0: f = tanh(ln(P/N)/(2 alpha)), N = 2(sqrt(1-xi^2) - xi arccos xi),
-    P = N + 2 pi xi (physics.md)."""
+    P = N + 2 pi xi (docs/physics.md)."""
     n = 2 * (math.sqrt(1 - xi * xi) - xi * math.acos(xi))
     return math.tanh(math.log((n + 2 * math.pi * xi) / n) / (2 * alpha))
 
@@ -67,7 +67,7 @@ def jenkins_kinematic(eps: float, xi: float) -> float:
     x_r(th1) at th2; no reverse slip while eps N < 2. Then
     f = 1 - eps/(2 pi) * integral_th1^th2 (x_r(th1) - x_r(th))/u0 dth
       = 1 - eps/(2 pi) * (-xi D^2/2 + sqrt(1 - xi^2) D + xi - cos th2),  D = th2 - th1,
-    which tends to physics.md's max(0, 1 - eps) (Teidelt, Starcevic, Popov 2012) as xi -> 0.
+    which tends to docs/physics.md's max(0, 1 - eps) (Teidelt, Starcevic, Popov 2012) as xi -> 0.
     """
     th1 = 2 * math.pi - math.acos(xi)
     th_min = 2 * math.pi + math.acos(xi)
@@ -95,7 +95,7 @@ def test_jenkins_formula_tends_to_the_linear_law():
 @pytest.mark.parametrize("alpha", [1.0, 0.5, 2.0, 0.0])
 def test_dahl_virgin_loading(alpha):
     """F/F_c = 1 - exp(-s) (alpha = 1), 1 - (1 + (alpha - 1) s)^(-1/(alpha - 1)) otherwise,
-    s = k_t x/F_c (physics.md; the base is clipped at 0 for alpha < 1, where F reaches F_c
+    s = k_t x/F_c (docs/physics.md; the base is clipped at 0 for alpha < 1, where F reaches F_c
     after s = 1/(1 - alpha); alpha = 0 is the Jenkins element F = min(k_t x, F_c))."""
     friction = replace(default_friction("dahl"), alpha=alpha)
     fc = PAPER_FRICTION_BOUND_N
@@ -122,7 +122,7 @@ LUGRE_1995 = FrictionParameters(
 
 @pytest.mark.parametrize("v, expected_N", [(1e-4, 1.4951), (1e-3, 1.1843), (2e-3, 1.0100)])
 def test_lugre_steady_state_1995_set(v, expected_N):
-    """F_ss(v) = g(v) + sigma2 v (physics.md values to 4 digits)."""
+    """F_ss(v) = g(v) + sigma2 v (docs/physics.md values to 4 digits)."""
     t = np.linspace(0.0, 2e-3 / v, 2001)  # 2 mm of sliding: > 100 presliding lengths
     run = laws.run_law(LUGRE_1995, t, np.full(t.shape, v), normal_force_N=1.0)
     exact = 1.0 + 0.5 * math.exp(-(v / 1e-3) ** 2) + 0.4 * v
@@ -134,7 +134,7 @@ def test_lugre_steady_state_1995_set(v, expected_N):
 
 
 def test_lugre_presliding_distance_1995_set():
-    """Quasi-static presliding to 0.95 F_s takes (F_s/sigma0) ln 20 = 44.9 um (physics.md)."""
+    """Quasi-static presliding to 0.95 F_s takes (F_s/sigma0) ln 20 = 44.9 um (docs/physics.md)."""
     v = 1e-8  # quasi-static: g(v) = F_s, sigma1 zdot and sigma2 v below 1e-5 N
     x = np.linspace(0.0, 100e-6, 100001)
     run = laws.run_law(LUGRE_1995, x / v, np.full(x.shape, v), normal_force_N=1.0)
@@ -146,7 +146,7 @@ def test_lugre_presliding_distance_1995_set():
 
 @pytest.mark.parametrize("law", ["coulomb", "dahl", "dupont", "lugre"])
 def test_no_reduction_when_the_support_is_slower_than_the_drive(law):
-    """f = 1 when v_a <= v_d, every model (physics.md): v_r never changes sign."""
+    """f = 1 when v_a <= v_d, every model (docs/physics.md): v_r never changes sign."""
     f = laws.kinematic_mean_ratio(
         default_friction(law), drive_velocity_m_per_s=1e-3,
         vibration_velocity_amplitude_m_per_s=0.8e-3, vibration_frequency_Hz=FREQUENCY_HZ,

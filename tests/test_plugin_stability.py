@@ -1,5 +1,5 @@
 """Stability of every law from dt = 1e-6 s to 1e-4 s, and the "z updated with the new velocity"
-trap of physics.md: a slider stuck on a vibrating table must not gain energy.
+trap of docs/physics.md: a slider stuck on a vibrating table must not gain energy.
 
 MuJoCo integrates act with the step's old velocity, which pumps energy into the stuck contact
 oscillation; the plugin redoes the z update in `advance` with the new velocity (closed form).

@@ -1,4 +1,4 @@
-"""Closed-form anchors for vibration-reduced friction and the friction laws (physics.md).
+"""Closed-form anchors for vibration-reduced friction and the friction laws (docs/physics.md).
 
 The kinematic ratios f = F_mean / (mu F_N) assume a heavy body moving exactly at the drive
 velocity v_d over a support vibrating at velocity amplitude v_a (xi = v_d / v_a). A slider of
@@ -91,7 +91,7 @@ def dahl_vanishing_amplitude_ratio(xi, alpha: float = 1.0):
     period (times 1/u0) against and along the drive. With the force nearly constant over a
     period, no net drift of z requires P (1-f)^alpha = N (1+f)^alpha. The reduction does not
     vanish with the amplitude (Dahl/LuGre drift); alpha = 0 gives the Jenkins limit 1 (xi > 0).
-    Dahl, J. Spacecraft 5 (1968); physics.md.
+    Dahl, J. Spacecraft 5 (1968); docs/physics.md.
     """
     if not alpha >= 0:
         raise ValueError(f"alpha={alpha!r} must be >= 0")

@@ -1,4 +1,4 @@
-"""Measured or simulated friction data in the dataset format (../notes/dataset-format.md).
+"""Measured or simulated friction data in the dataset format (docs/dataset-format.md).
 
 One measurement is ``NAME.csv`` (or ``NAME.csv.gz``) plus the sidecar ``NAME.json``. Columns are
 SI with the unit in the name; ``read_dataset`` validates everything and reports the first bad
@@ -370,7 +370,7 @@ def check_ranges(columns: Mapping[str, np.ndarray], where: str, row_label: RowLa
 
 def validate_columns(columns: Mapping[str, np.ndarray], where: str,
                      row_label: RowLabel = data_row_label) -> None:
-    """All of dataset-format.md's rules on named SI columns."""
+    """All of docs/dataset-format.md's rules on named SI columns."""
     check_required(list(columns), where)
     lengths = {name: len(values) for name, values in columns.items()}
     if len(set(lengths.values())) > 1:

@@ -71,7 +71,7 @@ LawFunction = Callable[[float, float, ContactParameters], float]
 
 
 def dahl_zdot(z: float, v_r: float, params: ContactParameters) -> float:
-    """Dahl (1968): ż = v_r sgn(w)|w|^alpha, w = 1 - k_t z sgn(v_r)/F_c (physics.md)."""
+    """Dahl (1968): ż = v_r sgn(w)|w|^alpha, w = 1 - k_t z sgn(v_r)/F_c (docs/physics.md)."""
     fc = params.coulomb_level_N
     if v_r == 0.0 or fc <= 0.0:
         return 0.0

@@ -1,6 +1,6 @@
 """Independent reference solution of the paper's rig with scipy ``solve_ivp``: the test oracle.
 
-Re-derives every friction law from its equations (physics.md; Gutowski & Leus 2012, eqs. 2-14)
+Re-derives every friction law from its equations (docs/physics.md; Gutowski & Leus 2012, eqs. 2-14)
 and imports no other law code of this package, so that an error in the production laws cannot
 hide in the oracle too. Only the parameter dataclasses and the summary are shared.
 

@@ -196,7 +196,7 @@ class RigRun:
                          settle)
 
     def columns(self) -> dict[str, np.ndarray]:
-        """The run in the dataset format's column names (dataset-format.md)."""
+        """The run in the dataset format's column names (docs/dataset-format.md)."""
         return {
             "time_s": self.time_s,
             "position_m": self.slider_position_m,

@@ -26,7 +26,7 @@ HELP = ("fit a friction law to a measured record (dataset format), trace the res
         "normal_force_modulation, drive_damping, sensor_lag, force_offset), select those the "
         "data justify, and write report.json, report.md and figures")
 
-# Sidecar keys --set may supply or override (dataset-format.md).
+# Sidecar keys --set may supply or override (docs/dataset-format.md).
 _METADATA_KEYS = ("mass_kg", "normal_force_N", "drive_stiffness_N_per_m",
                   "drive_velocity_m_per_s", "vibration_frequency_Hz")
 

@@ -455,7 +455,8 @@ def prepare_machine_replay(dataset: Dataset, *, substeps: int | None = None) -> 
     if missing:
         raise InputError(f"{where}: the {dataset.metadata.model} model needs "
                          f"{', '.join(missing)} (its controller's reference and the position "
-                         "its state starts from); the record lacks it (see dataset-format.md)")
+                         "its state starts from); the record lacks it (see "
+                         "docs/dataset-format.md)")
     t, sample_dt = uniform_times(dataset, where, _sample_interval)
     measured = {c: np.asarray(columns[c], dtype=float) for c in OUTPUT_CHANNELS
                 if c in columns and c not in scene.inputs}

@@ -41,7 +41,7 @@ from .output import new_figure, save_figure, write_csv
 from .runner import Progress
 
 GRAVITY_M_PER_S2 = 9.81
-TIGHT_SOLREF = (2e-6, 1.0)  # physics.md: frictionloss within 1 % at 1-2 us with this
+TIGHT_SOLREF = (2e-6, 1.0)  # docs/physics.md: frictionloss within 1 % at 1-2 us with this
 # mjINPUT_NONE (mjtCtrlInput): a dcmotor without control inputs, a purely passive device.
 _DCMOTOR_INPUT_NONE = 16
 
@@ -78,7 +78,7 @@ VARIANTS: dict[str, Variant] = {v.name: v for v in (
 )}
 BUILTIN_VARIANTS = tuple(n for n, v in VARIANTS.items() if v.builtin)
 PLUGIN_VARIANTS = tuple(n for n, v in VARIANTS.items() if not v.builtin)
-# The Jenkins element is Dupont's law with z_ba -> z_max (physics.md); 0.99 is the closest the
+# The Jenkins element is Dupont's law with z_ba -> z_max (docs/physics.md); 0.99 is the closest the
 # plugin allows (breakaway_ratio < 1).
 JENKINS_BREAKAWAY_RATIO = 0.99
 

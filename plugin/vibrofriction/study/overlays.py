@@ -1,4 +1,4 @@
-"""Analytic and kinematic overlays of the master curves (physics.md, "Kinematic-limit anchors").
+"""Analytic and kinematic overlays of the master curves (docs/physics.md, "Closed-form anchors").
 
 The kinematic limit of every law -- the body moving exactly at v_d over the vibrating support --
 comes from the plugin's own law code (``laws.kinematic_mean_ratio``); closed forms (arcsin law,
@@ -52,7 +52,8 @@ def arcsin_ratios(kappas: Sequence[float]) -> np.ndarray | None:
 
 
 def dahl_vanishing_amplitude_ratios(kappas: Sequence[float], alpha: float) -> np.ndarray | None:
-    """Dahl for u0 -> 0 (tanh(ln(P/N)/(2 alpha)), physics.md); None if analytic.py is missing."""
+    """Dahl for u0 -> 0 (tanh(ln(P/N)/(2 alpha)), docs/physics.md); None if analytic.py is
+    missing."""
     if _analytic is None:  # pragma: no cover - analytic.py ships with the package
         return None
     xi = 1.0 / np.asarray(kappas, dtype=float)
