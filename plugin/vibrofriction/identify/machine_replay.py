@@ -267,7 +267,9 @@ class MachineReplay(SampleGrid):
         return ("joint_damping_N_s_per_m",) if self.scene.damped_joint else ()
 
     def model(self, rig: RigParameters, friction: FrictionParameters,
-              scene_values: Mapping[str, float] | None = None) -> mujoco.MjModel:
+              scene_values: Mapping[str, float] | None = None,
+              outputs: Sequence[str] | None = None) -> mujoco.MjModel:
+        """The machine scene with these values (``outputs``: unused, its probes are few)."""
         return self.spec(rig, friction, scene_values=scene_values).compile()
 
     def spec(self, rig: RigParameters, friction: FrictionParameters,
