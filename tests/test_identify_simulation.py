@@ -291,9 +291,13 @@ def test_a_vibrating_sensor_record_is_replayed_on_a_grid_that_slides_along_the_v
     halved = replay.halved()
     assert halved.steps_per_sample == pytest.approx(2 * replay.steps_per_sample)
     assert len(halved.control) == halved.nstep
-    simulated = prepare_replay(dataset_of(rig.simulate(
-        RigParameters(), FrictionParameters(law="dahl"), duration_s=0.01), "dahl"))
-    assert simulated.timestep_from_record and simulated.steps_per_sample == simulated.substeps
+    record = dataset_of(rig.simulate(RigParameters(), FrictionParameters(law="dahl"),
+                                     duration_s=0.01), "dahl")
+    simulated = prepare_replay(record)
+    assert simulated.timestep_from_record and not simulated.sliding
+    # (also with substeps given, as a held-out record or --substeps gets them)
+    explicit = prepare_replay(record, substeps=2)
+    assert not explicit.sliding and len(explicit.control) == explicit.nstep
 
 
 def test_the_true_values_replay_a_strongly_vibrated_lab_record_to_its_noise():

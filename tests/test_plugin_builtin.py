@@ -1,6 +1,6 @@
 """The plugin against MuJoCo's own friction-like elements on the same rig (same slider joint):
 
-* ``lugre`` against the ``dcmotor`` actuator's LuGre friction (docs/physics.md's MJCF:
+* ``lugre`` against the ``dcmotor`` actuator's LuGre friction (MJCF:
   ``<dcmotor joint=".." input="none" motorconst="0" resistance="1" lugre="s0 s1 Fc Fs vs"
   damping="s2"/>``, XMLreference.rst "actuator/dcmotor/lugre");
 * ``dupont`` with breakaway_ratio -> 1 (the Jenkins element) against a joint spring with

@@ -57,8 +57,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"least relative drop of the training RMSE for an effect to be "
                              f"selected (default {MIN_IMPROVEMENT:g})")
     parser.add_argument("--substeps", type=int, default=None, metavar="N",
-                        help="simulation path: MuJoCo steps per sample interval (default: "
-                             "the record's simulation_timestep_s, else halved until the "
+                        help="simulation path: MuJoCo steps per sample interval (a vibrating "
+                             "sensor record: about N, as N + 0.382 per vibration period, so "
+                             "that the step grid slides along the vibration; default: the "
+                             "record's simulation_timestep_s, else halved until the "
                              "prediction converges); inverse path: law substeps per sample "
                              "interval (default 4; midpoint rule)")
     parser.add_argument("--set", dest="overrides", action="append", default=[],

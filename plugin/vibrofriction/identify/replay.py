@@ -83,6 +83,11 @@ class SampleGrid:
         return len(self.time_s)
 
     @property
+    def sliding(self) -> bool:
+        """Whether the step grid slides along the vibration (``RigReplay``)."""
+        return False
+
+    @property
     def steps_per_sample(self) -> float:
         """MuJoCo steps per sample interval: ``substeps``, or (a vibrating record replayed on
         a step grid that slides along the vibration, ``RigReplay.sliding_steps_per_sample``)
@@ -91,9 +96,7 @@ class SampleGrid:
 
     @property
     def nstep(self) -> int:
-        if self.steps_per_sample == self.substeps:
-            return (self.n - 1) * self.substeps + 1
-        return int(math.floor((self.n - 1) * self.steps_per_sample)) + 2
+        return grid_steps(self.n, self.substeps, self.steps_per_sample if self.sliding else None)
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -103,12 +106,20 @@ class SampleGrid:
         """Rollout rows (row k at the k-th step's start, nstep x ...) at the record's sample
         times: every ``substeps``-th row, or, on a sliding grid, linearly interpolated between
         the two steps around each sample (second order in the step)."""
-        if self.steps_per_sample == self.substeps:
+        if not self.sliding:
             return rows[0:self.nstep:self.substeps]
         position = np.arange(self.n) * self.steps_per_sample
         k = np.minimum(np.floor(position).astype(int), self.nstep - 2)
         w = (position - k).reshape((-1,) + (1,) * (rows.ndim - 1))
         return (1.0 - w) * rows[k] + w * rows[k + 1]
+
+
+def grid_steps(samples: int, substeps: int, sliding_steps_per_sample: float | None) -> int:
+    """Steps of a replay: the last sample a step's start (whole steps a sample), or (a sliding
+    grid) between the last two steps' starts."""
+    if sliding_steps_per_sample is None:
+        return (samples - 1) * substeps + 1
+    return int(math.floor((samples - 1) * sliding_steps_per_sample)) + 2
 
 
 def uniform_times(dataset: Dataset, where: str, sample_dt: Callable[[np.ndarray], float]
@@ -169,6 +180,10 @@ class RigReplay(SampleGrid):
     # a vibrating sensor record: steps per sample on a grid that slides along the vibration
     # (``sliding_timestep``); None: exactly ``substeps``
     sliding_steps_per_sample: float | None = None
+
+    @property
+    def sliding(self) -> bool:
+        return self.sliding_steps_per_sample is not None
 
     @property
     def steps_per_sample(self) -> float:
@@ -386,14 +401,13 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
     substeps = int(substeps)
     timestep = sample_dt / substeps
     sliding = None
-    if vibrating and not from_record:
+    if vibrating and not meta.simulation_timestep_s:  # (a simulator's record: its own grid)
         timestep = sliding_timestep(sample_dt, substeps, frequency)
         sliding = sample_dt / timestep
     # Support displacement at every step's end (the motion actuator's ctrl): the measured
     # position's cubic spline, else the exact integral of the measured velocity's (trapezoid
     # sums lose ~(w dt)^2/12 of the amplitude: 0.5 % at 25 samples a period).
-    nstep = (len(t) - 1) * substeps + 1 if sliding is None else \
-        int(math.floor((len(t) - 1) * sliding)) + 2
+    nstep = grid_steps(len(t), substeps, sliding)
     step_ends = t[0] + timestep * np.arange(1, nstep + 1)
     if "support_position_m" in columns:
         support_position = np.asarray(columns["support_position_m"], dtype=float)
@@ -465,7 +479,7 @@ def sliding_timestep(sample_dt: float, substeps: int, frequency_Hz: float) -> fl
     (``rig.period_timestep``). A lab's sample rate is usually a multiple of the vibration
     frequency; on a step grid that repeats every period the element's discretization error
     repeats too and does not average out: measured on the lab scenario (LuGre, v_a/v_d = 20,
-    the mean drive force), +8.9 % at 50 steps a period against +0.23 % at 50.382
+    the mean drive force), +8.9 % at 50 steps a period against +0.22 % at 50.382
     (docs/physics.md, scripts/check_strong_vibration_timestep.py)."""
     steps = max(1, round(substeps / (frequency_Hz * sample_dt)))
     return rig_module.period_timestep(frequency_Hz, steps)

@@ -412,6 +412,7 @@ def _converged_timestep(problem: SimulationProblem, train: Dataset, law: str,
                         problem.state, problem.scene)
     case = problem.case(model, model.values(model.internal(starts[0])))
     steps = problem.train.substeps
+    coarse_dt = problem.train.timestep_s
     with Replayer(problem.train, problem.runner.threads) as runner:
         coarse = runner.run([case])[0]
     sd = dict(problem.noise)
@@ -428,11 +429,11 @@ def _converged_timestep(problem: SimulationProblem, train: Dataset, law: str,
             fine = runner.run([case])[0]
         change = np.concatenate([(fine[c] - coarse[c]) / sd[c] for c in problem.train.channels])
         rms = math.sqrt(float(change @ change) / len(change))
-        say(f"timestep {finer.timestep_s * 2:.4g} s: halving it changes the prediction by "
+        say(f"timestep {coarse_dt:.4g} s: halving it changes the prediction by "
             f"{rms:.3g} sd (rms)" + ("" if rms <= TIMESTEP_TOLERANCE else "; halving"))
         if rms <= TIMESTEP_TOLERANCE:
             break
-        steps, coarse = 2 * steps, fine
+        steps, coarse, coarse_dt = 2 * steps, fine, finer.timestep_s
     return steps, (scales, starts)
 
 
@@ -443,7 +444,8 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
     replay = problem.train
     fit_mass = not replay.mass_known
     say(f"{replay.name}: {replay.n} samples, measured {', '.join(replay.channels)}; "
-        f"MuJoCo rig at dt {replay.timestep_s:.4g} s ({replay.substeps} step(s) a sample), "
+        f"MuJoCo rig at dt {replay.timestep_s:.4g} s ({replay.steps_per_sample:.4g} step(s) a "
+        f"sample{', sliding along the vibration' if replay.sliding else ''}), "
         f"law {law}" + (", mass identified" if fit_mass else "") +
         (f", {len(problem.validation)} held-out record(s)" if problem.validation else ""))
     skipped = _not_applicable(replay, law, declared)
@@ -613,6 +615,7 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
         numerical_floor=problem.floor,
         residual_peaks_Hz=peaks,
         settings={"method": "simulation", "substeps": replay.substeps,
+                  "steps_per_sample": replay.steps_per_sample,
                   "timestep_s": replay.timestep_s, "min_improvement": min_improvement,
                   "bic_threshold": bic_threshold, "fit_mass": fit_mass,
                   "noise_sd": dict(problem.noise)},

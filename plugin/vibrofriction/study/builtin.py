@@ -41,7 +41,7 @@ from .output import new_figure, save_figure, write_csv
 from .runner import Progress
 
 GRAVITY_M_PER_S2 = 9.81
-TIGHT_SOLREF = (2e-6, 1.0)  # docs/physics.md: frictionloss within 1 % at 1-2 us with this
+TIGHT_SOLREF = (2e-6, 1.0)  # frictionloss near rigid Coulomb (docs/physics.md, built-in friction)
 # mjINPUT_NONE (mjtCtrlInput): a dcmotor without control inputs, a purely passive device.
 _DCMOTOR_INPUT_NONE = 16
 
