@@ -978,7 +978,7 @@ def _stribeck_contact_start(problem: SimulationProblem, model: Model,
         contact = {"contact_stiffness_N_per_m": level / deflection}
         if "bristle_damping_N_s_per_m" in now and problem.law == "lugre":
             contact["bristle_damping_N_s_per_m"] = lugre_default_bristle_damping(
-                level / deflection, problem.train.rig.mass_kg)
+                level / deflection, now.get("mass_kg", problem.train.rig.mass_kg))
         for ratio in _STRIBECK_RATIOS:
             for r in _STRIBECK_SCAN:
                 mean_shape = float(np.mean(1 + (ratio - 1) * np.exp(-(speed / (r * v_rms)) ** 2)))
