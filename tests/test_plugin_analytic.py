@@ -1,5 +1,6 @@
 """Analytic anchors of docs/physics.md: the laws along prescribed motions (laws.run_law, the
-plugin's own C++ code) and the full MuJoCo rig with a heavy slider against the kinematic-limit formulas.
+plugin's own C++ code) and the full MuJoCo rig with a heavy slider against the kinematic-limit
+formulas.
 
 f = F_mean/(mu F_N), xi = v_d/v_a, eps = k_t u0/(mu F_N).
 

@@ -36,8 +36,8 @@ from .. import rig as rig_module
 from ..datasets import Dataset, smoothed_derivative
 from ..errors import InputError
 from ..params import FrictionParameters, RigParameters
-from .replay import (SampleGrid, contact_at_rest, full_state, noise_sd, substeps_of_record,
-                     uniform_times)
+from .replay import (SampleGrid, contact_at_rest, full_state, grid_steps, noise_sd,
+                     substeps_of_record, uniform_times)
 
 
 # A scene says how a record maps onto it in MJCF custom text elements (kept in the model):
@@ -427,7 +427,7 @@ def _control(scene: MachineScene, inputs: dict[str, np.ndarray], n: int,
              substeps: int) -> np.ndarray:
     rig_module.load()
     model = mujoco.MjModel.from_xml_path(str(scene.path))  # (actuator ids only)
-    nstep = (n - 1) * substeps + 1
+    nstep = grid_steps(n, substeps, None)
     control = np.zeros((nstep, model.nu))
     sample = np.minimum(np.arange(nstep) // substeps, n - 1)  # zero-order hold
     for column, actuator in scene.inputs.items():

@@ -28,8 +28,9 @@ Each sample interval is cut into ``substeps`` MuJoCo steps (default: the record'
 until it converges). A vibrating sensor record is stepped on a grid that slides along the
 vibration (about ``substeps`` steps a sample, N + 0.382 a period: ``sliding_timestep``) and
 its samples are read between steps; a lab's sample rate is usually a multiple of the vibration
-frequency, and a grid repeating every period repeats its discretization error too. Many parameter sets run at once on
-``mujoco.rollout`` threads, one model each (a finite-difference Jacobian is one call).
+frequency, and a grid repeating every period repeats its discretization error too. Many
+parameter sets run at once on ``mujoco.rollout`` threads, one model each (a finite-difference
+Jacobian is one call).
 """
 from __future__ import annotations
 

@@ -31,8 +31,8 @@ round's model (in round 1 at each local optimum of the baseline): the residual p
 model's and the effect's sensitivities. The ``SCREENED_FITS`` best with a linearized dBIC below
 0 (and a linearized RMSE drop of at least ``LINEARIZED_DROP_FRACTION`` of the improvement asked,
 except for the effects far from linear) are fitted; the ``CONVERGED_LEADERS`` best justified
-ones are then fitted to convergence before the choice. After each choice a backward step drops an earlier effect that the same test no
-longer justifies. A candidate effect is justified when
+ones are then fitted to convergence before the choice. After each choice a backward step drops
+an earlier effect that the same test no longer justifies. A candidate effect is justified when
 
 1. dBIC = n_eff ln((RSS_E + F)/(RSS_M + F)) + (k_E - k_M) ln(n_eff) < ``BIC_THRESHOLD``, with
    n_eff from the autocorrelation of the current model's residual and F the simulator's own
@@ -768,10 +768,10 @@ def _screen(problem: SimulationProblem, current: SimFit, bases: Sequence[SimFit]
             effects: Sequence[str], scales: Scales) -> dict[str, tuple]:
     """Each candidate linearized at each of ``bases`` (fits of the current model):
     effect -> (start, linearized dBIC, seconds, base, linearized weighted RMSE drop). The
-    residual is projected on the base's
-    Jacobian columns together with the effect's signatures, so the gain is what the effect
-    adds once the others adjust (a score test, in the spirit of Rao's); only candidates it
-    favours are fitted in full. The dBIC is against the current fit, linearized too."""
+    residual is projected on the base's Jacobian columns together with the effect's
+    signatures, so the gain is what the effect adds once the others adjust (a score test, in
+    the spirit of Rao's); only candidates it favours are fitted in full. The dBIC is against
+    the current fit, linearized too."""
     started = time.monotonic()
     n_eff = max(current.n_eff, 2.0)
     jacobians = [problem.jacobian(b.model, b.q, b.residual) for b in bases]
@@ -939,10 +939,9 @@ def _effect_start(problem: SimulationProblem, current: SimFit, effect: str,
         speed = np.abs(current.predicted["relative_velocity_m_per_s"])
         compensated = []
         for point in grid:
-            ratio, v_s = point["static_ratio"], point["stribeck_velocity_m_per_s"]
-            mean_shape = float(np.mean(1 + (ratio - 1) * np.exp(-(speed / v_s) ** 2)))
-            compensated.append({**point, "friction_coefficient":
-                                now["friction_coefficient"] / mean_shape})
+            compensated.append({**point, "friction_coefficient": _mean_keeping_coefficient(
+                now["friction_coefficient"], point["static_ratio"],
+                point["stribeck_velocity_m_per_s"], speed)})
         residuals = problem.residuals(model, [model.internal(v) for v in grid + compensated])
         rss = [float(r @ r) for r in residuals[:len(grid)]]
         order = np.argsort(rss)
@@ -964,6 +963,14 @@ def _effect_start(problem: SimulationProblem, current: SimFit, effect: str,
     return best, best_rss, others
 
 
+def _mean_keeping_coefficient(mu: float, static_ratio: float, stribeck_velocity: float,
+                              speed: np.ndarray) -> float:
+    """The friction coefficient that keeps the mean friction over the sliding speeds ``speed``
+    at ``mu``'s once a Stribeck peak (``static_ratio``, ``stribeck_velocity``) is added."""
+    shape = 1 + (static_ratio - 1) * np.exp(-(speed / stribeck_velocity) ** 2)
+    return mu / float(np.mean(shape))
+
+
 def _stribeck_contact_start(problem: SimulationProblem, model: Model,
                             now: Mapping[str, float], v_rms: float,
                             speed: np.ndarray) -> dict[str, float]:
@@ -980,11 +987,11 @@ def _stribeck_contact_start(problem: SimulationProblem, model: Model,
             contact["bristle_damping_N_s_per_m"] = lugre_default_bristle_damping(
                 level / deflection, now.get("mass_kg", problem.train.rig.mass_kg))
         for ratio in _STRIBECK_RATIOS:
-            for r in _STRIBECK_SCAN:
-                mean_shape = float(np.mean(1 + (ratio - 1) * np.exp(-(speed / (r * v_rms)) ** 2)))
+            for v_s in v_rms * _STRIBECK_SCAN:
                 trials.append({**now, **contact, "static_ratio": ratio,
-                               "stribeck_velocity_m_per_s": r * v_rms,
-                               "friction_coefficient": now["friction_coefficient"] / mean_shape})
+                               "stribeck_velocity_m_per_s": v_s,
+                               "friction_coefficient": _mean_keeping_coefficient(
+                                   now["friction_coefficient"], ratio, v_s, speed)})
     residuals = problem.residuals(model, [model.internal(v) for v in trials])
     return trials[int(np.argmin([float(r @ r) for r in residuals]))]
 

@@ -165,7 +165,8 @@ def report_markdown(result: SimIdentification) -> str:
               "motion; its sensors predict what the record measured.") +
              " Nothing measured is differentiated to form the prediction.",
              f"- MuJoCo timestep {replay.timestep_s:.4g} s ({replay.steps_per_sample:.4g} "
-             f"step(s) a sample{', on a grid sliding along the vibration' if replay.sliding else ''}"
+             "step(s) a sample" +
+             (", on a grid sliding along the vibration" if replay.sliding else "") +
              f"); {r.simulations} simulations in {r.seconds:.1f} s",
              f"- record: `{replay.name}`, {replay.n} samples; measured outputs: " +
              ", ".join(f"{c} (white-noise sd {replay.noise[c]:.3g}, weighted by sd "
