@@ -65,6 +65,15 @@ from .selection import (BIC_THRESHOLD, MIN_IMPROVEMENT, check_identifiable,
 
 ProgressFn = Callable[[str], None]
 _TOL = 1e-8
+# A fit stops once STALL_EVALUATIONS evaluations in a row, each within STALL_BAND of the best
+# weighted RSS so far, fail to lower it by STALL_RELATIVE of itself. The simulator's step grid
+# makes the cost rough at that scale: on a clean 0.4 s lab record a baseline fit's rejected
+# steps came back 3.4e-4 above its best, and the three baseline fits spent 31 of their 71
+# evaluations there, the trust region shrinking, after they had reached their optimum's RSS to
+# 0.03 %. (Steps rejected far above the best only shrink the trust region: not a stall.)
+STALL_EVALUATIONS = 3
+STALL_RELATIVE = 1e-4
+STALL_BAND = 1e-2
 _FD_STEP = 1e-4  # forward-difference step in the internal coordinates (O(1) scaled)
 # The timestep is halved until halving it again moves the prediction less than this (rms, in
 # units of each channel's noise sd).
@@ -95,6 +104,10 @@ _STRIBECK_SCAN = np.logspace(-1.5, 0.5, 6)  # v_s over the rms sliding velocity
 _STRIBECK_RATIOS = (1.2, 1.5, 2.0)
 _STRIBECK_STARTS = 3  # grid points a Stribeck candidate is fitted from
 _OTHER_STARTS = "further starts"  # key of a start dict: more starts for the same candidate
+
+
+class _Stalled(Exception):
+    """A fit's evaluations stopped making progress that matters (``STALL_CHI2``)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -167,12 +180,14 @@ class SimulationProblem:
     """The training replay, held-out replays and the parameter-to-model mapping."""
 
     def __init__(self, train: RigReplay, validation: Sequence[RigReplay], law: str,
-                 threads: int | None = None):
+                 threads: int | None = None, coarse: RigReplay | None = None):
         self.train = train
         self.validation = list(validation)
         self.law = law
         self.runner = Replayer(train, threads)
         self.held_runners = [Replayer(r, threads) for r in self.validation]
+        # the training record at twice the timestep, for scans that only rank their points
+        self.coarse_runner = Replayer(coarse, threads) if coarse is not None else None
         # the measured force (friction, else drive); a record driven by its force: position
         self.primary = next((c for c in ("friction_force_N", "drive_force_N")
                              if c in train.measured), train.channels[0])
@@ -196,13 +211,18 @@ class SimulationProblem:
                                       math.sqrt(float(np.mean(raw ** 2))))
             self.weights[channel] = 1.0 / self.noise[channel]
 
+    @property
+    def _runners(self) -> list[Replayer]:
+        return [self.runner, *self.held_runners,
+                *([self.coarse_runner] if self.coarse_runner else [])]
+
     def close(self) -> None:
-        for runner in (self.runner, *self.held_runners):
+        for runner in self._runners:
             runner.close()
 
     @property
     def simulations(self) -> int:
-        return sum(r.simulations for r in (self.runner, *self.held_runners))
+        return sum(r.simulations for r in self._runners)
 
     # -------------------------------------------------------------------- model evaluation
 
@@ -235,26 +255,50 @@ class SimulationProblem:
         outs = self.predict(model, [model.values(q) for q in qs])
         return [self.weighted(o) for o in outs]
 
+    def scan_rss(self, model: Model, qs: Sequence[np.ndarray]) -> list[float]:
+        """Weighted RSS of each point of a scan that only ranks its points, run at twice the
+        timestep where there is a coarser grid (the points differ by far more than the
+        simulator's error there; their RSS is not comparable with ``residuals``')."""
+        runner = self.coarse_runner or self.runner
+        outs = runner.run([self.case(model, model.values(q)) for q in qs])
+        return [float(r @ r) for r in (self.weighted(o) for o in outs)]
+
     # --------------------------------------------------------------------------------- fit
 
     def fit(self, model: Model, start: Mapping[str, float], max_nfev: int) -> SimFit:
         q0 = model.internal(start)
         lo, hi = model.bounds()
         cache: dict[bytes, np.ndarray] = {}
+        best = {"rss": math.inf, "q": np.array(q0, dtype=float), "stalled": 0, "nfev": 0}
 
         def fun(q: np.ndarray) -> np.ndarray:
             key = np.asarray(q, dtype=float).tobytes()
             if key not in cache:
                 cache.clear()
-                cache[key] = self.residuals(model, [q])[0]
+                cache[key] = residual = self.residuals(model, [q])[0]
+                best["nfev"] += 1
+                rss = float(residual @ residual)
+                if rss < best["rss"] * (1.0 - STALL_RELATIVE):
+                    best.update(rss=rss, q=np.array(q, dtype=float), stalled=0)
+                elif rss < best["rss"] * (1.0 + STALL_BAND):
+                    if rss < best["rss"]:
+                        best.update(rss=rss, q=np.array(q, dtype=float))
+                    best["stalled"] += 1
+                    if best["stalled"] >= STALL_EVALUATIONS:
+                        raise _Stalled
             return cache[key]
 
         def jac(q: np.ndarray) -> np.ndarray:
             return self.jacobian(model, q, fun(q))
 
-        result = least_squares(fun, q0, jac=jac, bounds=(lo, hi), method="trf",
-                               x_scale="jac", ftol=_TOL, xtol=_TOL, gtol=_TOL,
-                               max_nfev=max_nfev)
+        try:
+            result = least_squares(fun, q0, jac=jac, bounds=(lo, hi), method="trf",
+                                   x_scale="jac", ftol=_TOL, xtol=_TOL, gtol=_TOL,
+                                   max_nfev=max_nfev)
+        except _Stalled:
+            return self.result(model, best["q"], best["nfev"])
+        # (least_squares returns its last accepted point: the best evaluated one, up to the
+        # stall tolerance)
         return self.result(model, result.x, result.nfev)
 
     def jacobian(self, model: Model, q: np.ndarray, r0: np.ndarray) -> np.ndarray:
@@ -354,7 +398,8 @@ def identify_by_simulation(train: Dataset, validation: Sequence[Dataset] = (), *
         else:
             at = prepare_replay(train, substeps=steps)
             at_held = [prepare_replay(d, substeps=steps) for d in validation]
-        problems.append(SimulationProblem(at, at_held, law, threads))
+        coarse = prepare_replay(train, substeps=steps // 2) if steps >= 2 else None
+        problems.append(SimulationProblem(at, at_held, law, threads, coarse))
         return problems[-1]
 
     try:
@@ -701,9 +746,9 @@ def _start(problem: SimulationProblem, law: str, fit_mass: bool,
 
     def best(trials: list[tuple], count: int) -> list[tuple]:
         values = [start(*trial) for trial in trials]
-        residuals = problem.residuals(model, [model.internal(_internal_names(model, v))
-                                              for v in values])
-        order = np.argsort([float(r @ r) for r in residuals])
+        rss = problem.scan_rss(model, [model.internal(_internal_names(model, v))
+                                       for v in values])
+        order = np.argsort(rss)
         return [trials[i] for i in order[:count]]
 
     deflections = _DEFLECTION_SCAN_M if law != "coulomb" else [None]
@@ -787,7 +832,8 @@ def _screen(problem: SimulationProblem, current: SimFit, bases: Sequence[SimFit]
         for base, jacobian in zip(bases, jacobians):
             model = base.model.extended(effect, scales)
             start = dict(base.model.internal_values(base.q))
-            values, rss, others = _effect_start(problem, base, effect, model, jacobian)
+            values, rss, others = _effect_start(problem, base, effect, model, jacobian,
+                                                contact_grid=base is bases[0])
             start.update(values)
             start = {**start, _OTHER_STARTS: [{**start, **o} for o in others]}
             k_effect = model.k - base.model.k
@@ -883,13 +929,15 @@ def _off(name: str, model: Model) -> float:
 
 
 def _effect_start(problem: SimulationProblem, current: SimFit, effect: str,
-                  model: Model, base: np.ndarray
+                  model: Model, base: np.ndarray, contact_grid: bool = True
                   ) -> tuple[dict[str, float], float, list[dict[str, float]]]:
     """Start values of an effect: minus the residual projected on the effect's signatures
     (the change of the weighted prediction when a coordinate moves a little from "off"),
     all signatures of a scan simulated in one batch) together with the current model's
     Jacobian columns ``base``. Returns the values, the linearized weighted RSS and further
-    starts worth a fit of their own (Stribeck's next best grid points)."""
+    starts worth a fit of their own (Stribeck's next best grid points, and with
+    ``contact_grid`` the best of ``_stribeck_contact_start``'s grid: it rescans the contact
+    itself, so it is run from the best base only)."""
     now = dict(current.model.internal_values(current.q))
     params = {p.name: p for p in model.params}
     names = _linear_names(effect)
@@ -942,17 +990,18 @@ def _effect_start(problem: SimulationProblem, current: SimFit, effect: str,
             compensated.append({**point, "friction_coefficient": _mean_keeping_coefficient(
                 now["friction_coefficient"], point["static_ratio"],
                 point["stribeck_velocity_m_per_s"], speed)})
-        residuals = problem.residuals(model, [model.internal(v) for v in grid + compensated])
-        rss = [float(r @ r) for r in residuals[:len(grid)]]
-        order = np.argsort(rss)
-        i = int(order[0])
+        scanned = problem.scan_rss(model, [model.internal(v) for v in grid + compensated])
+        order = [int(j) for j in np.argsort(scanned[:len(grid)])[:_STRIBECK_STARTS]]
+        # (the leaders again at the fit's own timestep, comparable with the projection's rss)
+        rss = [float(r @ r) for r in problem.residuals(model, [model.internal(grid[j])
+                                                                for j in order])]
+        i = int(np.argmin(rss))
         if rss[i] < best_rss:
-            best, best_rss = grid[i], rss[i]
+            best, best_rss = grid[order[i]], rss[i]
         # stick-slip makes the cost rugged: the next best grid points start fits too
-        others = [grid[int(j)] for j in order[:_STRIBECK_STARTS] if grid[int(j)] is not best]
-        others.append(compensated[int(np.argmin([float(r @ r)
-                                                 for r in residuals[len(grid):]]))])
-        if "contact_stiffness_N_per_m" in now:
+        others = [grid[j] for j in order if grid[j] is not best]
+        others.append(compensated[int(np.argmin(scanned[len(grid):]))])
+        if contact_grid and "contact_stiffness_N_per_m" in now:
             others.append(_stribeck_contact_start(problem, model, now, v_rms, speed))
     for n in list(best):
         p = params[n]
@@ -992,8 +1041,7 @@ def _stribeck_contact_start(problem: SimulationProblem, model: Model,
                                "stribeck_velocity_m_per_s": v_s,
                                "friction_coefficient": _mean_keeping_coefficient(
                                    now["friction_coefficient"], ratio, v_s, speed)})
-    residuals = problem.residuals(model, [model.internal(v) for v in trials])
-    return trials[int(np.argmin([float(r @ r) for r in residuals]))]
+    return trials[int(np.argmin(problem.scan_rss(model, [model.internal(v) for v in trials])))]
 
 
 def _ripple_wavelength(problem: SimulationProblem, current: SimFit) -> float:
@@ -1004,16 +1052,31 @@ def _ripple_wavelength(problem: SimulationProblem, current: SimFit) -> float:
     x = current.predicted["relative_position_m"]
     travel = float(np.ptp(x)) or 1e-3
     step = float(np.quantile(np.abs(np.diff(x)), 0.95)) or travel
-    cycles = np.arange(1.0, max(travel / (4 * step), 1.25), 0.25)
-    best, best_gain = travel, -math.inf
-    for c in cycles:
-        k = 2 * math.pi * c / travel
-        a = np.column_stack([friction * np.sin(k * x), friction * np.cos(k * x)])
-        coef, *_ = np.linalg.lstsq(a, -target, rcond=None)
-        gain = float(coef @ (a.T @ -target))
-        if gain > best_gain:
-            best, best_gain = travel / c, gain
-    return best
+    spacing = 0.25  # cycles over the travel between wavelengths tried
+    # (at most one cycle per 8 samples: a record that hardly moves has a tiny step)
+    most = min(travel / (4 * step), len(x) / 8)
+    cycles = np.arange(1.0, max(most, 1.0 + spacing), spacing)
+    gains = []
+    f2, ft = friction * friction, -friction * target
+    # least squares on (f sin kx, f cos kx) for every wavelength: the gain is b' G^+ b with G
+    # the pair's Gram matrix and b their products with the residual, from the sums of
+    # f^2 e^(2ikx) and f t e^(ikx); e^(ikx) by recurrence along k within chunks of 64
+    turn = np.exp(2j * math.pi * spacing / travel * x)
+    for chunk in np.array_split(cycles, max(1, len(cycles) // 64)):
+        wave = np.empty((len(chunk), len(x)), dtype=complex)
+        wave[0] = np.exp(2j * math.pi * chunk[0] / travel * x)
+        for j in range(1, len(chunk)):
+            np.multiply(wave[j - 1], turn, out=wave[j])
+        double = (wave * wave) @ f2  # sum f^2 e^(2ikx)
+        b = wave @ ft
+        total = float(np.sum(f2))
+        gram = np.empty((len(chunk), 2, 2))
+        gram[:, 0, 0] = 0.5 * (total - double.real)  # sin^2
+        gram[:, 1, 1] = 0.5 * (total + double.real)  # cos^2
+        gram[:, 0, 1] = gram[:, 1, 0] = 0.5 * double.imag  # sin cos
+        b = np.column_stack([b.imag, b.real])
+        gains.extend(np.einsum("ki,kij,kj->k", b, np.linalg.pinv(gram), b))
+    return travel / float(cycles[int(np.argmax(gains))])
 
 
 def _tone_competition(problem: SimulationProblem, current: SimFit, fit: SimFit, effect: str,
