@@ -1,10 +1,13 @@
 #!/usr/bin/env python3
-"""Assemble README.md from docs/readme_template.md and the section files docs/readme_*.md.
+"""Build README.md, the front page, from docs/readme_template.md.
 
-The sections are written by the runs that produce their numbers (scripts/fig_readme.py writes
-docs/readme_study.md from a `vibrofriction reproduce` folder; the others are edited by hand from
-scripts/bench_plugin.py, scripts/bench_averaged.py and scripts/identify_real_data.py runs), so
-the README is never edited directly: change a section, then run this script.
+The README is the template with the figure link put in at `<!-- FIGURE -->`; the detailed
+material lives in pages under docs/ that the README links (docs/simulation.md, docs/study.md,
+docs/identification.md, docs/robots.md, ...). docs/study.md is written by the run that produces
+its numbers (scripts/fig_readme.py, from a `vibrofriction reproduce` folder); the other pages
+are edited by hand from scripts/bench_plugin.py, scripts/bench_averaged.py and
+scripts/identify_real_data.py runs. The README is never edited directly: change the template,
+then run this script.
 
     python scripts/build_readme.py
 """
@@ -15,30 +18,19 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
-SECTIONS = ("readme_core.md", "readme_study.md", "readme_identify.md", "readme_robots.md")
 FIGURE = ("![Master curves: drive-force ratio F_d-v/F_d-s against kappa_v = v_a/v_d for the four "
           "laws, with their kinematic limits](docs/figures/master_curves.png)")
 
 
-def section(name: str) -> str:
-    text = (DOCS / name).read_text()
-    # Drop leading HTML comments; figure links are relative to docs/.
-    while text.lstrip().startswith("<!--"):
-        text = text.lstrip()
-        text = text[text.index("-->") + 3:]
-    return text.strip().replace("](figures/", "](docs/figures/") + "\n"
-
-
 def build() -> str:
     template = (DOCS / "readme_template.md").read_text()
-    body = "\n".join(section(name) for name in SECTIONS)
-    return template.replace("<!-- FIGURE -->", FIGURE).replace("<!-- SECTIONS -->", body.strip())
+    return template.replace("<!-- FIGURE -->", FIGURE)
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--check", action="store_true",
-                        help="exit 1 if README.md is not what the sections assemble to")
+                        help="exit 1 if README.md is not what the template builds")
     args = parser.parse_args(argv)
     text = build()
     readme = ROOT / "README.md"

@@ -1,4 +1,5 @@
-"""The EMPS benchmark identified in closed loop, with a held-out half: the README's figures.
+"""The EMPS benchmark identified in closed loop, with a held-out half: the table in
+docs/identification.md.
 
 Converts ``DATA_EMPS.mat`` with ``vibrofriction convert`` (the record names its model, so
 ``identify`` simulates mjcf_models/emps in closed loop), cuts it at half time into a training

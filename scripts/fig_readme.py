@@ -1,14 +1,14 @@
 #!/usr/bin/env python3
-"""The README's study section: key figures (small palette PNGs in docs/figures/) and
-docs/readme_study.md with the claims and built-in comparison tables, all taken from the output
-folder of one ``vibrofriction reproduce`` run (run that first, without --no-builtin)."""
+"""The study's page: key figures (small palette PNGs in docs/figures/) and docs/study.md with
+the claims and built-in comparison tables, all taken from the output folder of one
+``vibrofriction reproduce`` run (run that first, without --no-builtin)."""
 from __future__ import annotations
 
 import argparse
 import sys
 from pathlib import Path
 
-from vibrofriction.study.readme import write_readme_section
+from vibrofriction.study.readme import write_study_page
 from vibrofriction.study.reproduce import DEFAULT_OUT
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -24,7 +24,7 @@ def main(argv=None) -> int:
                         help="docs folder (default the repository's docs/)")
     parser.add_argument("--quick", action="store_true", help="accepted for uniformity; unused")
     args = parser.parse_args(argv)
-    path = write_readme_section(args.results, args.out)
+    path = write_study_page(args.results, args.out)
     print(f"wrote {path} and figures in {args.out / 'figures'}")
     return 0
 

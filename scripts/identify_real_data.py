@@ -21,7 +21,7 @@ What runs (each one `vibrofriction identify`, reports under OUT/<case>/):
 
 Usage:  .venv/bin/python scripts/identify_real_data.py [--out DIR] [--figures DIR]
 Writes OUT/summary.md (the before/after table) and prints it; --figures copies the EMPS figure
-into DIR as identify_emps_fit.png (the README's figure).
+into DIR as identify_emps_fit.png (the figure in docs/identification.md).
 """
 from __future__ import annotations
 

@@ -11,7 +11,7 @@ selects nothing; a tone outside the vocabulary selects nothing and shows in the 
 Each case is a whole identification (2-6 min on 2 cores). The default run checks the clean
 record, the tone and the cheapest effect (the dynamometer's lag); ``VIBROFRICTION_FULL_MATRIX=1``
 runs all 8 effects (~15 min), as does ``scripts/check_hidden_effects.py``, which prints the
-README's table and fails on a miss.
+table in docs/identification.md and fails on a miss.
 """
 from __future__ import annotations
 

@@ -309,10 +309,10 @@ def test_load_is_idempotent():
 
 
 def test_readme_snippet_compiles_and_the_block_creeps(tmp_path):
-    """The MJCF example of docs/readme_core.md ("Adding the friction element...") works."""
-    doc = Path(__file__).resolve().parents[1] / "docs" / "readme_core.md"
+    """The MJCF example of docs/simulation.md ("Adding the friction element...") works."""
+    doc = Path(__file__).resolve().parents[1] / "docs" / "simulation.md"
     if not doc.is_file():
-        pytest.skip("docs/readme_core.md is not in this checkout")
+        pytest.skip("docs/simulation.md is not in this checkout")
     xml = re.search(r"```xml\n(.*?)```", doc.read_text(), re.S).group(1)
     model = mujoco.MjModel.from_xml_string(xml)
     data = mujoco.MjData(model)

@@ -177,7 +177,7 @@ def _continue(model, data, steps=300):
 @pytest.mark.parametrize("scene", ["emps", "dynamometer"])
 def test_plugin_state_round_trips_with_fullphysics_not_physics(scene):
     """The controller's and the dynamometer's state live in plugin_state: FULLPHYSICS restores
-    a run bit-identically; PHYSICS, as the README says, does not."""
+    a run bit-identically; PHYSICS, as docs/simulation.md says, does not."""
     from vibrofriction.identify.machine_replay import BUNDLED
     if scene == "emps":
         model = mujoco.MjModel.from_xml_path(str(BUNDLED["emps"]))

@@ -1,6 +1,8 @@
-"""The README is assembled from its sections and its test command is what CI runs."""
+"""The README is built from its template, its test command is what CI runs, and it is a short
+front page whose links (and those of the docs/ pages) resolve."""
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -8,6 +10,11 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+MAX_README_LINES = 220
+PAGES_THE_README_LINKS = ("simulation.md", "study.md", "identification.md", "robots.md",
+                          "physics.md", "interfaces.md", "dataset-format.md")
+# [text](target) and ![alt](target); a target ends at whitespace or ")".
+LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)\)")
 
 
 def _readme() -> str:
@@ -15,6 +22,18 @@ def _readme() -> str:
     if not path.exists():
         pytest.skip("README.md not in this checkout (installed-package test run)")
     return path.read_text()
+
+
+def _relative_link_targets(text: str) -> list[str]:
+    """Link targets outside code blocks and code spans, without #anchors; web links left out."""
+    text = re.sub(r"```.*?```", "", text, flags=re.S)
+    text = re.sub(r"`[^`\n]*`", "", text)
+    targets = []
+    for target in LINK.findall(text):
+        if target.startswith(("http://", "https://", "mailto:", "#")):
+            continue
+        targets.append(target.split("#", 1)[0])
+    return targets
 
 
 def test_readme_is_assembled_from_its_sections():
@@ -38,3 +57,29 @@ def test_every_figure_the_readme_shows_is_committed():
         target = part.split(")", 1)[0]
         if target.endswith(".png"):
             assert (ROOT / target).is_file(), target
+
+
+def test_readme_is_a_short_front_page():
+    lines = _readme().splitlines()
+    assert len(lines) <= MAX_README_LINES, (
+        f"README.md has {len(lines)} lines; move detail into a page under docs/")
+
+
+def test_every_relative_link_resolves():
+    readme = _readme()
+    documents = [(ROOT / "README.md", readme)]
+    documents += [(page, page.read_text()) for page in sorted((ROOT / "docs").glob("*.md"))
+                  if page.name != "readme_template.md"]  # its links are the README's
+    broken = []
+    for path, text in documents:
+        for target in _relative_link_targets(text):
+            if target and not (path.parent / target).exists():
+                broken.append(f"{path.relative_to(ROOT)}: {target}")
+    assert not broken, broken
+
+
+def test_readme_links_every_docs_page():
+    linked = {(ROOT / target).resolve() for target in _relative_link_targets(_readme())}
+    missing = [name for name in PAGES_THE_README_LINKS
+               if (ROOT / "docs" / name).resolve() not in linked]
+    assert not missing, f"README.md does not link docs/{missing}"

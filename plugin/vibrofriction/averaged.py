@@ -13,7 +13,7 @@ which the body's velocity ripple over a period is negligible) on a grid of xi = 
 the angle of V from the vibration axis, and :class:`AveragedTable` turns it into the config of
 the ``vibrofriction.averaged`` plugin, which applies F implicitly at robot timesteps.
 
-Valid when (docs/readme_robots.md): the vibration period is much shorter than the robot's time
+Valid when (docs/robots.md): the vibration period is much shorter than the robot's time
 scales and the timestep is not needed to resolve it; the body is heavy against the contact
 (m (2 pi f)^2 >> k_t) and its velocity ripple mu F_N / (m 2 pi f) << v_a; F_N, v_a and f change
 slowly over a period. The table is normalized by mu F_N at the F_N it was made for: exact in F_N

@@ -1,4 +1,4 @@
-"""Parameter dataclasses: the one vocabulary of the project (see README, "Parameters").
+"""Parameter dataclasses: the one vocabulary of the project (see docs/simulation.md, "Parameters").
 
 Every field is in SI units with the unit in its name. The same names are used by the
 Python API, the CLI's ``--set NAME=VALUE``, JSON outputs and dataset sidecars.

@@ -27,7 +27,7 @@ MJCF_DIR = Path(__file__).resolve().parent / "mjcf_models"
 RIG_DIR = MJCF_DIR / "rig"
 DEFAULT_TIMESTEP_S = 1e-5
 
-# FrictionParameters field -> MJCF config key of vibrofriction.friction (README table).
+# FrictionParameters field -> MJCF config key of vibrofriction.friction (docs/simulation.md table).
 MJCF_KEYS = {
     "friction_coefficient": "mu",
     "contact_stiffness_N_per_m": "stiffness",

@@ -7,7 +7,7 @@ rendering.
   vibrofriction.averaged and the table made by :func:`plate_push_table` from the same law.
 * Vibratory feeder: a track vibrating along a 20 degree throw line at 100 Hz conveys parts; the
   conveying comes from the normal load (contact force, modulated by the vertical vibration)
-  acting through the planar element. It needs the resolved element: see docs/readme_robots.md.
+  acting through the planar element. It needs the resolved element: see docs/robots.md.
 
 The vibration can be switched on and off within a run through ctrl (0 off, 1 on): the resolved
 scenes' shaker and the averaged element both take it (``use_ctrl``).

@@ -70,8 +70,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--model", default=None, metavar="MODEL",
                         help="the model the records are replayed in (overrides the sidecars' "
                              "'model'): a bundled machine (emps) or an MJCF scene whose "
-                             "<custom> texts map the record onto it (see the README, 'Your own "
-                             "scene'); 'rig' for the vibrating rig")
+                             "<custom> texts map the record onto it (see docs/identification.md, "
+                             "'Your own scene'); 'rig' for the vibrating rig")
     parser.add_argument("--method", choices=("auto", "simulation", "inverse"), default="auto",
                         help="simulation: fit the MuJoCo rig scene with the plugin, driven by "
                              "the record's inputs, to every measured channel (output error; "

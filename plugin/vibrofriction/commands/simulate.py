@@ -1,7 +1,7 @@
 """``vibrofriction simulate``: one run of the paper's rig.
 
 The time series goes to ``--csv FILE`` in the dataset format (``NAME.csv`` plus the sidecar
-``NAME.json``, see the README's dataset section); the summary (parameters, mean drive force over
+``NAME.json``, see docs/dataset-format.md); the summary (parameters, mean drive force over
 whole vibration periods after the transient, friction extrema, sign change, and with
 ``--static`` the static drive force F_d-s and the ratio F_d-v/F_d-s) goes to ``--json FILE``
 or, without it, to stdout.

@@ -1,6 +1,6 @@
 """Baseline fit, residual tracing and forward selection of effects.
 
-Criterion (documented in docs/readme_identify.md). A candidate effect E extends the current
+Criterion (documented in docs/identification.md). A candidate effect E extends the current
 model M; both are fitted by least squares on the training record. E is *justified* when
 
 1. BIC with the effective sample size improves clearly:

@@ -1,8 +1,8 @@
-"""The README section of the study, built from a ``reproduce`` output folder.
+"""The study's documentation page, built from a ``reproduce`` output folder.
 
 Copies the key figures (palette PNGs, < 150 kB each) into ``docs/figures/`` and writes
-``docs/readme_study.md`` with the claims table and the built-in comparison table, every number
-taken from that folder's ``claims.json`` and ``builtin.md``.
+``docs/study.md`` with the claims table and the built-in comparison table, every number taken
+from that folder's ``claims.json`` and ``builtin.md``. The README links to that page.
 """
 from __future__ import annotations
 
@@ -64,7 +64,7 @@ def _builtin_table(builtin_md: str) -> list[str]:
     return [line for line in builtin_md.splitlines() if line.startswith("|")]
 
 
-def write_readme_section(results: Path, docs: Path, *, figure_prefix: str = "figures") -> Path:
+def write_study_page(results: Path, docs: Path, *, figure_prefix: str = "figures") -> Path:
     results, docs = Path(results), Path(docs)
     claims = json.loads((results / "claims.json").read_text())
     builtin_md = (results / "builtin.md").read_text()
@@ -76,18 +76,20 @@ def write_readme_section(results: Path, docs: Path, *, figure_prefix: str = "fig
     notes = [f"{i}. *{c['id']}*: {c['definition']}" + (f" {c['note']}" if c["note"] else "")
              for i, c in enumerate(claims["claims"], 1)]
     text = "\n".join([
-        "## The paper's simulation study, reproduced",
+        "# The paper's simulation study, reproduced",
         "",
-        f"Every number and figure in this section comes from one run of `{claims['command']}` "
+        "[Back to the README](../README.md)",
+        "",
+        f"Every number and figure on this page comes from one run of `{claims['command']}` "
         f"(vibrofriction {claims['versions']['vibrofriction']}, MuJoCo "
         f"{claims['versions']['mujoco']}, {claims['wall_s']:.0f} s on 2 cores); the full "
         "summary with all figures is the `summary.md` that command writes. Figures: "
-        "`scripts/fig_*.py` (one per figure) or `vibrofriction reproduce`; this section: "
+        "`scripts/fig_*.py` (one per figure) or `vibrofriction reproduce`; this page: "
         "`python scripts/fig_readme.py --results results`.",
         "",
         *_convergence(claims),
         figures[0], "", figures[1], "",
-        "### The paper's claims, with this run's numbers",
+        "## The paper's claims, with this run's numbers",
         "",
         *_claims_table(claims),
         "",
@@ -98,7 +100,7 @@ def write_readme_section(results: Path, docs: Path, *, figure_prefix: str = "fig
         "no Stribeck peak) — see its module docstring for the reasons.",
         "",
         figures[2], "", figures[3], "",
-        "### MuJoCo's built-in friction in the same rig",
+        "## MuJoCo's built-in friction in the same rig",
         "",
         f"`vibrofriction compare-builtin`: each variant is the rig scene edited with MjSpec "
         f"(friction plugin removed, one built-in element added). Timestep ladder "
@@ -116,9 +118,9 @@ def write_readme_section(results: Path, docs: Path, *, figure_prefix: str = "fig
         figures[4],
         "",
     ])
-    path = docs / "readme_study.md"
+    path = docs / "study.md"
     path.write_text(text)
     return path
 
 
-__all__ = ["write_readme_section", "compact_png", "KEY_FIGURES"]
+__all__ = ["write_study_page", "compact_png", "KEY_FIGURES"]
