@@ -5,6 +5,7 @@ vibration it is rigid Coulomb with stick."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import mujoco
 import numpy as np
@@ -113,6 +114,64 @@ def test_without_vibration_it_is_coulomb_with_stick():
                                       abs=1e-3)
     assert all(w.number == 0 for w in data.warning)
 
+
+
+def _slider_path(spec: mujoco.MjSpec, duration_s: float = 1.0) -> np.ndarray:
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    rows = []
+    while data.time < duration_s:
+        mujoco.mj_step(model, data)
+        rows.append(data.qpos[2:4].copy())
+    return np.array(rows)
+
+
+def test_without_vibration_its_stribeck_curve_is_the_planar_coulomb_elements():
+    """velocity_amplitude = 0 with static_ratio > 1: the averaged element is vibrofriction.planar
+    with law="coulomb", Stribeck curve (stribeck_velocity) included, step for step; leaving
+    stribeck_velocity out means its default, 1e-3 m/s, and another path."""
+    rig = replace(_rig(1.0, va=0.0), drive_velocity_m_per_s=3e-3)  # sliding near v_s
+    friction = FrictionParameters(law="coulomb", friction_coefficient=0.3, static_ratio=1.5,
+                                  stribeck_velocity_m_per_s=4e-3)
+    angle = math.radians(40)
+    resolved = planar.build_rig_spec(rig, friction, drive_angle_rad=angle, timestep_s=2e-3)
+    resolved.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST  # as the averaged scene
+    config = {"mu": "0.3", "normal": repr(NORMAL_N), "static_ratio": "1.5",
+              "stribeck_velocity": "0.004"}
+    averaged_spec = planar.build_rig_spec(rig, friction, drive_angle_rad=angle, timestep_s=2e-3,
+                                          averaged_config=config)
+    path = _slider_path(averaged_spec)
+    assert np.max(np.abs(path)) > 1e-3  # it slid
+    assert np.array_equal(path, _slider_path(resolved))
+    del config["stribeck_velocity"]
+    default_path = _slider_path(planar.build_rig_spec(
+        rig, friction, drive_angle_rad=angle, timestep_s=2e-3, averaged_config=config))
+    assert np.max(np.abs(default_path - path)) > 1e-5
+
+
+def test_the_table_config_carries_the_no_vibration_stribeck_curve(dahl_table):
+    config = dahl_table.config()
+    assert config["static_ratio"] == repr(PART.static_ratio)
+    assert config["stribeck_velocity"] == repr(PART.stribeck_velocity_m_per_s)
+
+
+def test_a_bad_stribeck_velocity_is_named():
+    config = {"mu": "0.3", "normal": repr(NORMAL_N), "stribeck_velocity": "0"}
+    spec = planar.build_rig_spec(_rig(0.5), PART, timestep_s=1e-3, averaged_config=config)
+    with pytest.raises(ValueError, match=r"vibrofriction.averaged .*attribute "
+                                         r"'stribeck_velocity'=\"0\" must be > 0 \(m/s\)"):
+        spec.compile()
+
+
+@pytest.mark.parametrize("key, value", [("law", "dahl"), ("stiffness", "1e6")])
+def test_a_law_key_of_the_resolved_element_is_refused_by_name(key, value):
+    """The law's shape is in the table: the resolved element's law keys are not attributes of
+    the averaged one, and MuJoCo names the one given."""
+    config = {"mu": "0.3", "normal": repr(NORMAL_N), key: value}
+    spec = planar.build_rig_spec(_rig(0.5), PART, timestep_s=1e-3, averaged_config=config)
+    with pytest.raises(ValueError, match=f"unrecognized attribute 'plugin:{key}' for plugin "
+                                         "vibrofriction.averaged"):
+        spec.compile()
 
 def test_invalid_table_is_named(dahl_table):
     config = dahl_table.config()

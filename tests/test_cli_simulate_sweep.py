@@ -117,6 +117,56 @@ def test_sweep_with_more_threads_than_runs(tmp_path):
     assert json.loads(out.read_text()) == json.loads(one_thread.read_text())
 
 
+
+def test_a_sweep_point_carries_the_mean_friction_force_of_its_run_summary(tmp_path,
+                                                                          monkeypatch):
+    """Every point has mean_friction_force_N, taken from the run's own summary (the object
+    simulate reports it from): equal to it, and to simulate's for the same run."""
+    import vibrofriction.sweep as sweep_module
+
+    summaries = []
+    run_cases = sweep_module.run_cases
+
+    def recording_run_cases(*args, **kwargs):
+        results = run_cases(*args, **kwargs)
+        summaries.extend(result.summary for result in results)
+        return results
+
+    monkeypatch.setattr(sweep_module, "run_cases", recording_run_cases)
+    fixed = [*SHORT, "--timestep", "1e-5"]
+    sweep_json = tmp_path / "sweep.json"
+    assert main(["sweep", "--va", "3e-3", "--json", str(sweep_json), *fixed]) == 0
+    point = json.loads(sweep_json.read_text())["points"][0]
+    static_summary, point_summary = summaries  # the static run, then the --va run
+    assert point["mean_friction_force_N"] == point_summary.mean_friction_force_N
+    assert point["mean_friction_force_N"] != static_summary.mean_friction_force_N
+    simulate_json = tmp_path / "simulate.json"
+    assert main(["simulate", "--set", "vibration_velocity_amplitude_m_per_s=3e-3", "--json",
+                 str(simulate_json), *fixed]) == 0
+    simulated = json.loads(simulate_json.read_text())
+    assert point["mean_friction_force_N"] == simulated["mean_friction_force_N"]
+
+
+def test_sweep_threads_with_a_scheduler_is_refused_before_connecting(tmp_path, capsys,
+                                                                     monkeypatch):
+    """--threads sets local rollout threads; with --scheduler it could not apply, so the pair
+    is one usage error (exit 2) naming both options and the fix, before any connection."""
+    import vibrofriction.study.sweep as study_sweep
+
+    def no_cluster(*args, **kwargs):
+        raise AssertionError("the sweep reached the Dask cluster")
+
+    monkeypatch.setattr(study_sweep, "dask_map", no_cluster)
+    out = tmp_path / "sweep.json"
+    assert main(["sweep", "--va", "3e-3", "--threads", "2", "--scheduler", "tcp://127.0.0.1:9",
+                 "--json", str(out)]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1
+    assert lines[0].startswith("vibrofriction sweep: error: --threads 2 ")
+    assert "--scheduler tcp://127.0.0.1:9" in lines[0]
+    assert "drop --threads" in lines[0] and "drop --scheduler" in lines[0]
+    assert not out.exists()
+
 BAD_INPUT = [
     (["simulate", "--set", "mass=1"], "unknown parameter 'mass'"),
     (["simulate", "--set", "mass_kg=nan"], "mass_kg"),

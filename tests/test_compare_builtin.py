@@ -107,6 +107,20 @@ def test_unknown_variant_exits_2(tmp_path, capsys):
     assert "unknown variant" in capsys.readouterr().err
 
 
+
+def test_timestep_is_not_an_option_the_ladder_sets_the_timesteps(tmp_path, capsys):
+    """compare-builtin chooses every timestep (--ladder, the master grid): --timestep is neither
+    offered by --help nor accepted (argparse's own error, exit 2)."""
+    with pytest.raises(SystemExit) as help_exit:
+        cli.main(["compare-builtin", "--help"])
+    assert help_exit.value.code == 0
+    assert "--timestep" not in capsys.readouterr().out
+    with pytest.raises(SystemExit) as usage_exit:
+        cli.main(["compare-builtin", "--quick", "--timestep", "1e-5", "--out", str(tmp_path)])
+    assert usage_exit.value.code == 2
+    assert "unrecognized arguments: --timestep 1e-5" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
 def test_required_timestep_is_the_largest_from_which_on_all_finer_steps_pass():
     dts = [8.0, 4.0, 2.0, 1.0]  # coarse -> fine; the last is the own reference
     assert builtin._required([0.02, 0.005, 0.001, 0.0], dts, 0.01, skip_last=True) == 4.0

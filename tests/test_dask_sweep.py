@@ -74,3 +74,26 @@ def test_the_sweep_command_on_a_dask_cluster_equals_its_local_run():
         remote = sweep(rig, default_friction("dahl", rig), [0.75e-3, 3e-3],
                        scheduler=cluster.scheduler_address, **settings)
     assert remote == local
+
+
+def test_a_grid_record_carries_the_mean_friction_force_of_its_run_summary(monkeypatch):
+    """Each record (and grid_sweep.csv row) has mean_friction_force_N, taken from its run's
+    summary, as a `vibrofriction sweep` point has."""
+    import vibrofriction.study.sweep as study_sweep
+
+    points = []
+    run_points = study_sweep.run_points
+
+    def recording_run_points(*args, **kwargs):
+        result = run_points(*args, **kwargs)
+        points.extend(result)
+        return result
+
+    monkeypatch.setattr(study_sweep, "run_points", recording_run_points)
+    one_case = SweepGrid(kappas=(3.0,), vibration_frequencies_Hz=(4000.0,),
+                         contact_stiffnesses_N_per_m=(80.0 * N_PER_UM,),
+                         normal_forces_N=(55.2,), law="dahl")
+    record, = run_sweep(one_case, StudyConfig.quick_config()).records
+    vibrating, = [p for p in points if p.rig.vibration_velocity_amplitude_m_per_s > 0]
+    assert record.mean_friction_force_N == vibrating.summary.mean_friction_force_N
+    assert record.row()["mean_friction_force_N"] == record.mean_friction_force_N

@@ -4,13 +4,16 @@ the attribute (and says what to write); each numeric attribute has the physical 
 Python name (params.LIMITS); the MuJoCo version check names both versions."""
 from __future__ import annotations
 
+import math
 import re
+from dataclasses import replace
 from pathlib import Path
 
 import mujoco
 import pytest
 
 import vibrofriction
+from vibrofriction import planar
 from vibrofriction import rig as rig_module
 from vibrofriction.params import LIMITS, RigParameters, default_friction
 
@@ -214,8 +217,8 @@ def test_invalid_motion_attribute_is_named(instance, changes, attribute, fix):
 
 
 # The plugin attribute of each params.LIMITS name (instance in the rig scene, MJCF key). The
-# averaged element reads mu, normal, viscous, static_ratio and velocity_amplitude with the same
-# keys and so the same ranges.
+# averaged element reads mu, normal, viscous, static_ratio, stribeck_velocity and
+# velocity_amplitude with the same keys and so the same ranges.
 PLUGIN_ATTRIBUTES = {name: ("friction", key) for name, key in rig_module.MJCF_KEYS.items()}
 PLUGIN_ATTRIBUTES.update({
     "normal_force_N": ("friction", "normal"),
@@ -270,6 +273,49 @@ def test_an_out_of_range_value_stops_what_would_run_nan():
         message = _compile_error(spec)
         assert f"attribute '{key}'=\"1e18\" is out of its physical range" in message
 
+
+
+def test_python_modulation_frequency_zero_is_written_as_the_vibration_frequency():
+    """normal_force_modulation_frequency_Hz = 0 in Python means "the vibration frequency": the
+    rig (1D and planar) writes that frequency into the MJCF key, where 0 would mean 0 Hz; a
+    non-zero value is written as it is."""
+    rig = RigParameters(vibration_frequency_Hz=2600.0, vibration_velocity_amplitude_m_per_s=3e-3)
+    friction = replace(default_friction("dahl", rig), normal_force_modulation=0.2)
+    assert friction.normal_force_modulation_frequency_Hz == 0
+    configs = {
+        "rig.friction_config": rig_module.friction_config(rig, friction),
+        "rig.build_spec": _plugin_config(rig_module.build_spec(rig, friction, 1e-5), "friction"),
+        "planar.build_rig_spec": _plugin_config(
+            planar.build_rig_spec(rig, friction, timestep_s=1e-5), "friction"),
+    }
+    for where, config in configs.items():
+        assert float(config["modulation_frequency"]) == rig.vibration_frequency_Hz, where
+    explicit = replace(friction, normal_force_modulation_frequency_Hz=10.0)
+    assert float(rig_module.friction_config(rig, explicit)["modulation_frequency"]) == 10.0
+
+
+def test_mjcf_modulation_frequency_zero_is_zero_hz():
+    """modulation_frequency="0" in MJCF is literally 0 Hz: F_N = normal (1 + m sin(phase)),
+    constant, although the table vibrates at 4 kHz."""
+    spec = _spec()
+    _set_config(spec, "friction", {"normal_modulation": "0.2", "modulation_frequency": "0",
+                                   "modulation_phase": "0.5"})
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    normal_column = rig_module.sensor_slices(model)["friction_state"].start + 3
+    normal_forces_N = []
+    for _ in range(100):  # 1 ms: four vibration periods
+        mujoco.mj_step(model, data)
+        normal_forces_N.append(data.sensordata[normal_column])
+    expected_N = RigParameters().normal_force_N * (1 + 0.2 * math.sin(0.5))
+    assert normal_forces_N == pytest.approx([expected_N] * 100, rel=1e-12)
+
+
+def _plugin_config(spec: mujoco.MjSpec, instance: str) -> dict[str, str]:
+    for plugin in spec.plugins:
+        if plugin.name == instance:
+            return dict(plugin.config)
+    raise AssertionError(f"no plugin instance {instance}")
 
 LAGGED_TENDON_CASES = [
     ({"time_constant": "-1e-5"}, "time_constant", ">= 0"),

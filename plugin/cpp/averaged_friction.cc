@@ -24,8 +24,8 @@ constexpr char kTableAcross[] = "table_across";
 
 const char* const kAttributes[] = {
     kMu, kNormal, kNormalSensor, kNormalGain, kNormalComponent, kContactGeom1, kContactGeom2,
-    kViscous, kStaticRatio, kVelocityAmplitude, kAxisAngle, kUseCtrl, kTableXi, kTableAngle,
-    kTableAlong, kTableAcross};
+    kViscous, kStaticRatio, kStribeckVelocity, kVelocityAmplitude, kAxisAngle, kUseCtrl,
+    kTableXi, kTableAngle, kTableAlong, kTableAcross};
 
 constexpr char kPlugin[] = "vibrofriction.averaged";
 
@@ -138,6 +138,7 @@ bool AveragedConfig::FromModel(const mjModel* m, int instance, AveragedConfig* c
   if (!ReadNumber(m, instance, kPlugin, kMu, 0.2, &p.friction_coefficient) ||
       !ReadNumber(m, instance, kPlugin, kViscous, 0.0, &p.viscous) ||
       !ReadNumber(m, instance, kPlugin, kStaticRatio, 1.0, &p.static_ratio) ||
+      !ReadNumber(m, instance, kPlugin, kStribeckVelocity, 1e-3, &p.stribeck_velocity) ||
       !ReadNumber(m, instance, kPlugin, kVelocityAmplitude, 0.0, &c.velocity_amplitude) ||
       !ReadNumber(m, instance, kPlugin, kAxisAngle, 0.0, &c.axis_angle)) {
     return false;
@@ -145,6 +146,9 @@ bool AveragedConfig::FromModel(const mjModel* m, int instance, AveragedConfig* c
   if (p.friction_coefficient < 0) return Reject(kMu, p.friction_coefficient, "must be >= 0");
   if (p.viscous < 0) return Reject(kViscous, p.viscous, "must be >= 0 (N s/m)");
   if (p.static_ratio < 1) return Reject(kStaticRatio, p.static_ratio, "must be >= 1");
+  if (p.stribeck_velocity <= 0) {
+    return Reject(kStribeckVelocity, p.stribeck_velocity, "must be > 0 (m/s)");
+  }
   c.axis_cos = std::cos(c.axis_angle);
   c.axis_sin = std::sin(c.axis_angle);
   if (c.velocity_amplitude < 0) {

@@ -14,7 +14,9 @@
 // as the Coulomb stick solve) and applies F(u). A friction law whose slope is large compared with
 // m/dt (the averaged law near V = 0 at small vibration) therefore stays stable at dt = 1-2 ms.
 // With no vibration (velocity_amplitude = 0, or ctrl = 0 with use_ctrl) it is rigid Coulomb with
-// the planar stick solve.
+// the planar stick solve, its level raised by static_ratio near rest on the Stribeck curve of
+// stribeck_velocity (as vibrofriction.planar with law="coulomb"). With vibration both are unused:
+// the table was built from the resolved law, Stribeck curve included.
 //
 // Normal load: as vibrofriction.planar (normal + normal_gain * sensor or contact force between
 // contact_geom1 and contact_geom2 of the previous step). The table is normalized by mu F_N; it
@@ -46,7 +48,9 @@ struct AveragedTable {
 };
 
 struct AveragedConfig {
-  LawParameters coulomb;          // mu, static_ratio, viscous: the no-vibration law
+  // mu, static_ratio, stribeck_velocity, viscous: the no-vibration law (v_a = 0, or use_ctrl
+  // with ctrl <= 0). With vibration the table already holds the averaged Stribeck curve.
+  LawParameters coulomb;
   NormalLoad normal;
   PlanarTransmission transmission;
   AveragedTable table;

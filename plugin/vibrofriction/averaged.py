@@ -84,7 +84,10 @@ class AveragedTable:
             "normal": repr(float(self.normal_force_N if normal_force_N is None
                                  else normal_force_N)),
             "viscous": repr(float(fr.viscous_N_s_per_m)),
+            # static_ratio and stribeck_velocity shape only the law without vibration (v_a = 0,
+            # or use_ctrl with ctrl <= 0); with vibration the table holds their effect.
             "static_ratio": repr(float(fr.static_ratio)),
+            "stribeck_velocity": repr(float(fr.stribeck_velocity_m_per_s)),
             "velocity_amplitude": repr(float(self.vibration.velocity_amplitude_m_per_s)),
             "axis_angle": repr(float(self.vibration.axis_angle_rad)),
             "table_xi": _numbers(self.xi, 17),

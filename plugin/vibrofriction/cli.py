@@ -34,17 +34,21 @@ class UsageError(InputError):
     """Bad input from the user: printed as one line, exit code 2."""
 
 
-def add_common_arguments(parser: argparse.ArgumentParser, *, law: bool = True) -> None:
-    """Options every command shares (docs/interfaces.md)."""
+def add_common_arguments(parser: argparse.ArgumentParser, *, law: bool = True,
+                         timestep: bool = True) -> None:
+    """Options the model commands share (docs/interfaces.md); ``timestep=False`` for a command
+    that chooses its own timesteps (compare-builtin), so --timestep is not offered at all."""
     parser.add_argument("--set", dest="overrides", action="append", default=[],
                         metavar="NAME=VALUE",
                         help="override a parameter (repeatable), e.g. --set mass_kg=0.5")
     if law:
         parser.add_argument("--law", default="dahl",
                             help="friction law: coulomb, dahl, dupont or lugre (default dahl)")
-    parser.add_argument("--timestep", type=float, default=None, metavar="S",
-                        help="simulation timestep in seconds (default: N + 0.382 steps per "
-                             "vibration period, N = 50 doubled per doubling of kappa_v above 10)")
+    if timestep:
+        parser.add_argument("--timestep", type=float, default=None, metavar="S",
+                            help="simulation timestep in seconds (default: N + 0.382 steps per "
+                                 "vibration period, N = 50 doubled per doubling of kappa_v "
+                                 "above 10)")
     parser.add_argument("--json", dest="json_path", type=Path, default=None, metavar="FILE",
                         help="write the machine-readable result to FILE")
 

@@ -76,7 +76,9 @@ def run_law(friction: FrictionParameters, time_s, relative_velocity_m_per_s, *,
 
     ``normal_force_N`` is a constant or an array over the samples; ``position_m`` (relative
     position on the support) feeds the position-ripple effect. Coulomb has no stick solve here
-    (the velocity is given): F = g(v) sgn(v) + sigma2 v, and 0 at v = 0 exactly.
+    (the velocity is given): F = g(v) sgn(v) + sigma2 v, and 0 at v = 0 exactly. There is no
+    vibration here, so normal_force_modulation_frequency_Hz = 0 is 0 Hz (as in MJCF), not the
+    vibration frequency it means in the rigs.
     """
     friction.validate()
     lib = load()

@@ -146,7 +146,13 @@ class FrictionParameters:
     position_ripple: float = 0.0  # relative amplitude of friction periodic in position
     position_ripple_wavelength_m: float = 1.0e-3
     position_ripple_phase_rad: float = 0.0
-    normal_force_modulation: float = 0.0  # relative amplitude, at the vibration frequency
+    # F_N (1 + m sin(2 pi f_m t + phase)): m the relative amplitude, f_m the frequency (Hz).
+    normal_force_modulation: float = 0.0
+    # f_m = 0 means "the vibration frequency" wherever a rig is given (rig.build_spec and
+    # rig.friction_config, planar.build_rig_spec, reference.simulate_reference): they write
+    # RigParameters.vibration_frequency_Hz into the MJCF key modulation_frequency, in which 0
+    # means 0 Hz (a constant factor 1 + m sin(phase)). Without a rig (laws.run_law,
+    # planar.planar_config, planar.run_planar_law) 0 is passed on, so it is 0 Hz there.
     normal_force_modulation_frequency_Hz: float = 0.0
     normal_force_modulation_phase_rad: float = 0.0
     force_offset_N: float = 0.0

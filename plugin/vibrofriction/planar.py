@@ -57,7 +57,10 @@ def check_planar(friction: FrictionParameters) -> FrictionParameters:
 
 def planar_config(friction: FrictionParameters, *, normal_force_N: float | None = None,
                   contact_geoms: tuple[str, str] | None = None) -> dict[str, str]:
-    """Config of a vibrofriction.planar instance (MJCF keys, string values)."""
+    """Config of a vibrofriction.planar instance (MJCF keys, string values).
+
+    No rig here: normal_force_modulation_frequency_Hz is written as it is, so 0 is 0 Hz in the
+    MJCF (build_rig_spec writes the rig's vibration frequency in its place)."""
     check_planar(friction)
     config = {"law": friction.law}
     for name, key in PLANAR_MJCF_KEYS.items():
@@ -80,7 +83,8 @@ def run_planar_law(friction: FrictionParameters, time_s, relative_velocity_m_per
     """The planar law along a prescribed relative velocity history (n x 2), kinematic driving.
 
     Step order as the plugin: force i uses (z_i, v_i); z_{i+1} advances with v_{i+1}. Coulomb
-    is kinematic: F = g(|v|) v/|v| + sigma2 v.
+    is kinematic: F = g(|v|) v/|v| + sigma2 v. No rig here: normal_force_modulation_frequency_Hz
+    = 0 is 0 Hz, as in MJCF.
     """
     check_planar(friction)
     lib = load()

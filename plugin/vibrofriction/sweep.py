@@ -20,7 +20,7 @@ from .steady import (DEFAULT_TOLERANCE, MIN_WINDOWS, Convergence, SteadyRun, con
 from .summary import RunSummary
 
 POINT_KEYS = ("vibration_velocity_amplitude_m_per_s", "kappa", "mean_drive_force_N", "ratio",
-              "friction_min_N", "friction_max_N", "sign_change")
+              "mean_friction_force_N", "friction_min_N", "friction_max_N", "sign_change")
 # After the interface's keys, every point (and "static_convergence") says how it converged.
 CONVERGENCE_KEYS = ("converged", "estimated_remaining_error", "relative_change",
                     "window_start_s", "window_end_s", "windows", "window_s", "tolerance",
@@ -85,6 +85,7 @@ def sweep(rig: RigParameters, friction: FrictionParameters, amplitudes: list[flo
             "kappa": case_rig.kappa,
             "mean_drive_force_N": s.mean_drive_force_N,
             "ratio": s.mean_drive_force_N / static if static != 0 else None,
+            "mean_friction_force_N": s.mean_friction_force_N,
             "friction_min_N": s.friction_min_N,
             "friction_max_N": s.friction_max_N,
             "sign_change": s.sign_change,

@@ -34,7 +34,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="steps per vibration period of the timestep ladder "
                              "(dt = T/(N + 0.382)); the finest is the reference")
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
-    add_common_arguments(parser, law=False)
+    # No --timestep: the ladder and the master grid set every timestep.
+    add_common_arguments(parser, law=False, timestep=False)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -48,9 +49,6 @@ def run(args: argparse.Namespace) -> int:
         rig, friction = apply_overrides(PAPER_RIG, FrictionParameters(
             contact_stiffness_N_per_m=PAPER_CONTACT_STIFFNESS_N_PER_M), overrides)
         changes.update(rig=rig, friction=friction)
-    if args.timestep is not None:
-        raise ParameterError("compare-builtin chooses its timesteps (--ladder); "
-                             "--timestep is not accepted")
     config = study_config(args.quick, **changes)
     names = [v.strip() for v in args.variants.split(",") if v.strip()]
     unknown = [v for v in names if v not in builtin.VARIANTS]

@@ -26,11 +26,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_common_arguments(parser)
     add_run_arguments(parser)
     parser.add_argument("--threads", type=int, default=None, metavar="N",
-                        help="rollout threads (default: one per CPU core, at most one per run)")
+                        help="local rollout threads (default: one per CPU core, at most one "
+                             "per run); not with --scheduler")
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
                         help="run the amplitudes on this Dask scheduler (HOST:PORT; needs the "
                              "extra 'dask' and vibrofriction installed on the workers) instead "
-                             "of local rollout threads")
+                             "of local rollout threads; not with --threads (the workers' own "
+                             "threads run the tasks: dask worker --nthreads N)")
 
 
 def parse_amplitudes(text: str) -> list[float]:
@@ -52,6 +54,14 @@ def parse_amplitudes(text: str) -> list[float]:
 
 
 def run(args: argparse.Namespace) -> int:
+    # Before anything else, so the refusal needs no cluster: a Dask task runs one amplitude on
+    # its worker, whose thread count the worker sets, so --threads could not apply there.
+    if args.threads is not None and args.scheduler is not None:
+        raise UsageError(f"--threads {args.threads} sets local rollout threads and cannot be "
+                         f"combined with --scheduler {args.scheduler}, where each Dask worker "
+                         "runs the amplitudes on its own threads; drop --threads (set the "
+                         "workers' threads with 'dask worker --nthreads N') or drop "
+                         "--scheduler to run locally")
     amplitudes = parse_amplitudes(args.va)
     rig, friction = parameters_from_args(args)
     if args.threads is not None and args.threads < 1:

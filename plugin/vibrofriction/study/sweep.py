@@ -75,6 +75,7 @@ class SweepRecord:
     timestep_s: float
     mean_drive_force_N: float
     static_drive_force_N: float
+    mean_friction_force_N: float
     friction_min_N: float
     friction_max_N: float
     sign_change: bool
@@ -132,14 +133,14 @@ def make_tasks(cases: Sequence[Case], config: StudyConfig, *, chunk_size: int,
 
 
 def run_task(task: SweepTask) -> list[tuple[int, float, float, float, float, bool, bool,
-                                             float]]:
+                                             float, float]]:
     """Run one chunk (also on a Dask worker): (index, dt, mean F_d, F_min, F_max, sign,
-    converged, estimated remaining error)."""
+    converged, estimated remaining error, mean F_F)."""
     config = StudyConfig(timestep_s=task.timestep_s)
     points = run_points(list(task.cases), config, timesteps=[task.timestep_s] * len(task.cases))
     return [(i, p.timestep_s, p.summary.mean_drive_force_N, p.summary.friction_min_N,
              p.summary.friction_max_N, p.summary.sign_change, p.convergence.converged,
-             p.convergence.estimated_remaining_error)
+             p.convergence.estimated_remaining_error, p.summary.mean_friction_force_N)
             for i, p in zip(task.indices, points)]
 
 
@@ -219,7 +220,7 @@ def run_sweep(grid: SweepGrid, config: StudyConfig, *, scheduler: Any = None,
     per_static = len(grid.kappas)
     records = []
     for i, (r, f) in enumerate(cases):
-        _, dt, mean, fmin, fmax, sign, converged, remaining = by_index[i]
+        _, dt, mean, fmin, fmax, sign, converged, remaining, mean_friction = by_index[i]
         static_converged, static_remaining = static_steady[i // per_static]
         records.append(SweepRecord(
             kappa=r.kappa, vibration_velocity_amplitude_m_per_s=r.vibration_velocity_amplitude_m_per_s,
@@ -227,7 +228,8 @@ def run_sweep(grid: SweepGrid, config: StudyConfig, *, scheduler: Any = None,
             contact_stiffness_N_per_m=f.contact_stiffness_N_per_m,
             normal_force_N=r.normal_force_N, friction_coefficient=f.friction_coefficient,
             timestep_s=dt, mean_drive_force_N=mean,
-            static_drive_force_N=static_force[i // per_static], friction_min_N=fmin,
+            static_drive_force_N=static_force[i // per_static],
+            mean_friction_force_N=mean_friction, friction_min_N=fmin,
             friction_max_N=fmax, sign_change=bool(sign),
             converged=bool(converged and static_converged),
             estimated_remaining_error=float(max(remaining, static_remaining))))
