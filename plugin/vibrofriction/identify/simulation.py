@@ -74,6 +74,12 @@ _TOL = 1e-8
 STALL_EVALUATIONS = 3
 STALL_RELATIVE = 1e-4
 STALL_BAND = 1e-2
+# A baseline start after the first is abandoned when its RSS after RACE_EVALUATIONS
+# evaluations is still above RACE_RATIO times the best baseline fit's so far: it is descending
+# a long valley from far away (on a clean 0.4 s lab record, a start at 5.4 times the best after
+# 10 evaluations took 25 evaluations to arrive at the same optimum as the first start).
+RACE_EVALUATIONS = 10
+RACE_RATIO = 3.0
 _FD_STEP = 1e-4  # forward-difference step in the internal coordinates (O(1) scaled)
 # The timestep is halved until halving it again moves the prediction less than this (rms, in
 # units of each channel's noise sd).
@@ -107,7 +113,11 @@ _OTHER_STARTS = "further starts"  # key of a start dict: more starts for the sam
 
 
 class _Stalled(Exception):
-    """A fit's evaluations stopped making progress that matters (``STALL_CHI2``)."""
+    """A fit's evaluations stopped making progress that matters (``STALL_RELATIVE``)."""
+
+
+class _Abandoned(Exception):
+    """A fit is still far above a better one after its first evaluations (``RACE_RATIO``)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -265,7 +275,10 @@ class SimulationProblem:
 
     # --------------------------------------------------------------------------------- fit
 
-    def fit(self, model: Model, start: Mapping[str, float], max_nfev: int) -> SimFit:
+    def fit(self, model: Model, start: Mapping[str, float], max_nfev: int,
+            race: tuple[int, float] | None = None) -> SimFit | None:
+        """Least squares from ``start``; with ``race`` (evaluations, rss), None when the RSS
+        after that many evaluations is still above that rss."""
         q0 = model.internal(start)
         lo, hi = model.bounds()
         cache: dict[bytes, np.ndarray] = {}
@@ -286,6 +299,8 @@ class SimulationProblem:
                     best["stalled"] += 1
                     if best["stalled"] >= STALL_EVALUATIONS:
                         raise _Stalled
+                if race and best["nfev"] == race[0] and best["rss"] > race[1]:
+                    raise _Abandoned
             return cache[key]
 
         def jac(q: np.ndarray) -> np.ndarray:
@@ -297,6 +312,8 @@ class SimulationProblem:
                                    max_nfev=max_nfev)
         except _Stalled:
             return self.result(model, best["q"], best["nfev"])
+        except _Abandoned:
+            return None
         # (least_squares returns its last accepted point: the best evaluated one, up to the
         # stall tolerance)
         return self.result(model, result.x, result.nfev)
@@ -525,8 +542,19 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
         starts = [*starts, at_once, start]
         say(f"baseline: the {still.n_rows} samples before the vibration starts, fitted at "
             f"once and over {len(STILL_WINDOWS)} growing windows, give two more starts")
-    local = _distinct(problem, sorted((problem.fit(model, start, BASELINE_EVALUATIONS)
-                                       for start in starts), key=lambda fit: fit.rss))
+    fits: list[SimFit] = []
+    scanned = len(starts) - (2 if still is not None else 0)
+    for index, start in enumerate(starts):
+        # (the still stage's starts are fitted in full: they stand for another basin)
+        race = (RACE_EVALUATIONS, RACE_RATIO * min(f.rss for f in fits)) \
+            if fits and index < scanned else None
+        fit = problem.fit(model, start, BASELINE_EVALUATIONS, race)
+        if fit is not None:
+            fits.append(fit)
+    if len(fits) < len(starts):
+        say(f"baseline: {len(starts) - len(fits)} start(s) abandoned, still above "
+            f"{RACE_RATIO:g} times the best fit's RSS after {RACE_EVALUATIONS} evaluations")
+    local = _distinct(problem, sorted(fits, key=lambda fit: fit.rss))
     baseline = local[0]
     if len(replay.channels) > 1:
         problem.reweight(baseline)
@@ -1036,7 +1064,7 @@ def _stribeck_contact_start(problem: SimulationProblem, model: Model,
             contact["bristle_damping_N_s_per_m"] = lugre_default_bristle_damping(
                 level / deflection, now.get("mass_kg", problem.train.rig.mass_kg))
         for ratio in _STRIBECK_RATIOS:
-            for v_s in v_rms * _STRIBECK_SCAN:
+            for v_s in v_rms * _STRIBECK_SCAN[::2]:  # (the fit from it refines v_s)
                 trials.append({**now, **contact, "static_ratio": ratio,
                                "stribeck_velocity_m_per_s": v_s,
                                "friction_coefficient": _mean_keeping_coefficient(
