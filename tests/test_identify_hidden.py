@@ -8,9 +8,9 @@ vibration at 4 kHz, v_a = 20 mm/s. Identified with LuGre and nothing declared, e
 vocabulary effects hidden alone is the one selection with its value within 5 %; a clean record
 selects nothing; a tone outside the vocabulary selects nothing and shows in the residual peaks.
 
-Each case is a whole identification (2-6 min on 2 cores). The default run checks the clean
+Each case is a whole identification (20-70 s on 2 cores). The default run checks the clean
 record, the tone and the cheapest effect (the dynamometer's lag); ``VIBROFRICTION_FULL_MATRIX=1``
-runs all 8 effects (~15 min), as does ``scripts/check_hidden_effects.py``, which prints the
+runs all 8 effects (~8 min), as does ``scripts/check_hidden_effects.py``, which prints the
 table in docs/identification.md and fails on a miss.
 """
 from __future__ import annotations
@@ -39,7 +39,7 @@ TONE = synthetic.PeriodicDisturbance(frequency_Hz=1234.0, amplitude_N=0.2, phase
 FULL_MATRIX = os.environ.get("VIBROFRICTION_FULL_MATRIX") == "1"
 DEFAULT_EFFECTS = ("sensor_lag",)
 _SKIPPED = pytest.mark.skip(reason="one of the full hidden-effect matrix: run it with "
-                                   "VIBROFRICTION_FULL_MATRIX=1 (~15 min) or "
+                                   "VIBROFRICTION_FULL_MATRIX=1 (~8 min) or "
                                    "scripts/check_hidden_effects.py")
 
 
