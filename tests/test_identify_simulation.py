@@ -320,3 +320,39 @@ def test_the_true_values_replay_a_strongly_vibrated_lab_record_to_its_noise():
                                    ** 2))
     assert force_rms <= 1.1 * scenario.noise.force_N
     assert position_rms <= 1e-8
+
+
+@pytest.mark.parametrize("shape", ["monotone", "reversing"])
+def test_the_ripple_wavelength_search_is_the_least_squares_scan_it_stands_for(shape):
+    """The vectorized wavelength search picks what a plain least-squares fit of
+    (f sin kx, f cos kx) at every wavelength of the scan picks."""
+    from types import SimpleNamespace
+
+    from vibrofriction.identify.simulation import _ripple_wavelength
+    rng = np.random.default_rng(3)
+    n = 2000
+    t = np.linspace(0.0, 1.0, n)
+    x = 1e-3 * t if shape == "monotone" else 1e-3 * (t + 0.2 * np.sin(9 * t))
+    friction = 10.0 + 0.5 * np.sign(np.sin(40 * t))
+    wavelength = 1e-3 / 37.25
+    target = -0.3 * friction * np.sin(2 * math.pi * x / wavelength + 0.4) + \
+        0.05 * rng.standard_normal(n)
+    # (the residual, predicted minus measured, is the target)
+    problem = SimpleNamespace(primary="friction_force_N", train=SimpleNamespace(
+        measured={"friction_force_N": friction - target}))
+    current = SimpleNamespace(predicted={"friction_force_N": friction,
+                                         "relative_position_m": x})
+
+    travel = float(np.ptp(x))
+    step = float(np.quantile(np.abs(np.diff(x)), 0.95))
+    best, best_gain = None, -math.inf
+    for c in np.arange(1.0, max(min(travel / (4 * step), n / 4), 1.25), 0.25):
+        k = 2 * math.pi * c / travel
+        a = np.column_stack([friction * np.sin(k * x), friction * np.cos(k * x)])
+        coef, *_ = np.linalg.lstsq(a, -target, rcond=None)
+        gain = float(coef @ (a.T @ -target))
+        if gain > best_gain:
+            best, best_gain = travel / c, gain
+    assert _ripple_wavelength(problem, current) == pytest.approx(best, rel=1e-12)
+    if shape == "monotone":
+        assert best == pytest.approx(wavelength, rel=1e-9)

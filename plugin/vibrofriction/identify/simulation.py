@@ -65,8 +65,8 @@ from .selection import (BIC_THRESHOLD, MIN_IMPROVEMENT, check_identifiable,
 
 ProgressFn = Callable[[str], None]
 _TOL = 1e-8
-# A fit stops once STALL_EVALUATIONS evaluations in a row, each within STALL_BAND of the best
-# weighted RSS so far, fail to lower it by STALL_RELATIVE of itself. The simulator's step grid
+# A fit stops once STALL_EVALUATIONS evaluations within STALL_BAND of the best weighted RSS so
+# far have come since it last fell by STALL_RELATIVE of itself. The simulator's step grid
 # makes the cost rough at that scale: on a clean 0.4 s lab record a baseline fit's rejected
 # steps came back 3.4e-4 above its best, and the three baseline fits spent 31 of their 71
 # evaluations there, the trust region shrinking, after they had reached their optimum's RSS to
@@ -860,8 +860,7 @@ def _screen(problem: SimulationProblem, current: SimFit, bases: Sequence[SimFit]
         for base, jacobian in zip(bases, jacobians):
             model = base.model.extended(effect, scales)
             start = dict(base.model.internal_values(base.q))
-            values, rss, others = _effect_start(problem, base, effect, model, jacobian,
-                                                contact_grid=base is bases[0])
+            values, rss, others = _effect_start(problem, base, effect, model, jacobian)
             start.update(values)
             start = {**start, _OTHER_STARTS: [{**start, **o} for o in others]}
             k_effect = model.k - base.model.k
@@ -871,6 +870,11 @@ def _screen(problem: SimulationProblem, current: SimFit, bases: Sequence[SimFit]
                 drop = 1.0 - math.sqrt((rss + problem.floor) / (rss0 + problem.floor))
                 out[effect] = (start, float(dbic), 0.0, base, drop)
         start, dbic, _, base, drop = out[effect]
+        if effect == "stribeck" and "contact_stiffness_N_per_m" in bases[0].values:
+            # one more start, whichever base won: the contact rescanned with the peak in
+            # place, from the best base (it sets every value, so it starts any base's fit)
+            start[_OTHER_STARTS].append(_stribeck_contact_start(
+                problem, bases[0].model.extended(effect, scales), bases[0]))
         out[effect] = (start, dbic, time.monotonic() - begun + base_seconds / len(effects),
                        base, drop)
     return out
@@ -957,15 +961,14 @@ def _off(name: str, model: Model) -> float:
 
 
 def _effect_start(problem: SimulationProblem, current: SimFit, effect: str,
-                  model: Model, base: np.ndarray, contact_grid: bool = True
+                  model: Model, base: np.ndarray
                   ) -> tuple[dict[str, float], float, list[dict[str, float]]]:
     """Start values of an effect: minus the residual projected on the effect's signatures
     (the change of the weighted prediction when a coordinate moves a little from "off"),
     all signatures of a scan simulated in one batch) together with the current model's
     Jacobian columns ``base``. Returns the values, the linearized weighted RSS and further
-    starts worth a fit of their own (Stribeck's next best grid points, and with
-    ``contact_grid`` the best of ``_stribeck_contact_start``'s grid: it rescans the contact
-    itself, so it is run from the best base only)."""
+    starts worth a fit of their own (Stribeck's next best grid points; ``_screen`` adds
+    ``_stribeck_contact_start``'s, once, from the best base)."""
     now = dict(current.model.internal_values(current.q))
     params = {p.name: p for p in model.params}
     names = _linear_names(effect)
@@ -1029,8 +1032,6 @@ def _effect_start(problem: SimulationProblem, current: SimFit, effect: str,
         # stick-slip makes the cost rugged: the next best grid points start fits too
         others = [grid[j] for j in order if grid[j] is not best]
         others.append(compensated[int(np.argmin(scanned[len(grid):]))])
-        if contact_grid and "contact_stiffness_N_per_m" in now:
-            others.append(_stribeck_contact_start(problem, model, now, v_rms, speed))
     for n in list(best):
         p = params[n]
         if p.name in names:
@@ -1049,13 +1050,16 @@ def _mean_keeping_coefficient(mu: float, static_ratio: float, stribeck_velocity:
 
 
 def _stribeck_contact_start(problem: SimulationProblem, model: Model,
-                            now: Mapping[str, float], v_rms: float,
-                            speed: np.ndarray) -> dict[str, float]:
+                            base: SimFit) -> dict[str, float]:
     """The best of a grid over the contact's deflection and the Stribeck curve together. A
     baseline without the peak mimics stick-slip with a stiff contact, and a peak added there
     stays in that basin (a hidden-Stribeck lab record: k_t 580 N/um where it is 80); the
     contact's stiffness is scanned again with the peak in place, the level lowered so that the
-    mean friction over the record's sliding speeds (``speed``) stays."""
+    mean friction over the sliding speeds of ``base``'s prediction stays. ``model``: ``base``'s
+    model with the Stribeck curve."""
+    now = dict(base.model.internal_values(base.q))
+    v_rms = next(p for p in model.params if p.name == "stribeck_velocity_m_per_s").scale
+    speed = np.abs(base.predicted["relative_velocity_m_per_s"])
     level = now["friction_coefficient"] * problem.train.rig.normal_force_N
     trials = []
     for deflection in _DEFLECTION_SCAN_M[::2]:
@@ -1081,8 +1085,9 @@ def _ripple_wavelength(problem: SimulationProblem, current: SimFit) -> float:
     travel = float(np.ptp(x)) or 1e-3
     step = float(np.quantile(np.abs(np.diff(x)), 0.95)) or travel
     spacing = 0.25  # cycles over the travel between wavelengths tried
-    # (at most one cycle per 8 samples: a record that hardly moves has a tiny step)
-    most = min(travel / (4 * step), len(x) / 8)
+    # (at most one cycle per 4 samples, which a steady motion's step gives anyway: a record
+    # that hardly moves has a tiny step and would ask for trillions of wavelengths)
+    most = min(travel / (4 * step), len(x) / 4)
     cycles = np.arange(1.0, max(most, 1.0 + spacing), spacing)
     gains = []
     f2, ft = friction * friction, -friction * target
@@ -1090,7 +1095,7 @@ def _ripple_wavelength(problem: SimulationProblem, current: SimFit) -> float:
     # the pair's Gram matrix and b their products with the residual, from the sums of
     # f^2 e^(2ikx) and f t e^(ikx); e^(ikx) by recurrence along k within chunks of 64
     turn = np.exp(2j * math.pi * spacing / travel * x)
-    for chunk in np.array_split(cycles, max(1, len(cycles) // 64)):
+    for chunk in (cycles[i:i + 64] for i in range(0, len(cycles), 64)):
         wave = np.empty((len(chunk), len(x)), dtype=complex)
         wave[0] = np.exp(2j * math.pi * chunk[0] / travel * x)
         for j in range(1, len(chunk)):
