@@ -266,8 +266,8 @@ class SimulationProblem:
         return [self.weighted(o) for o in outs]
 
     def scan_rss(self, model: Model, qs: Sequence[np.ndarray]) -> list[float]:
-        """Weighted RSS of each point of a scan that only ranks its points, run at twice the
-        timestep where there is a coarser grid (the points differ by far more than the
+        """Weighted RSS of each point of a scan that only ranks its points, run at half the
+        substeps (about twice the timestep) where there is a coarser grid (the points differ by far more than the
         simulator's error there; their RSS is not comparable with ``residuals``')."""
         runner = self.coarse_runner or self.runner
         outs = runner.run([self.case(model, model.values(q)) for q in qs])
@@ -1093,7 +1093,7 @@ def _ripple_wavelength(problem: SimulationProblem, current: SimFit) -> float:
     f2, ft = friction * friction, -friction * target
     # least squares on (f sin kx, f cos kx) for every wavelength: the gain is b' G^+ b with G
     # the pair's Gram matrix and b their products with the residual, from the sums of
-    # f^2 e^(2ikx) and f t e^(ikx); e^(ikx) by recurrence along k within chunks of 64
+    # f^2 e^(2ikx) and f t e^(ikx); e^(ikx) by recurrence along k within slices of 64
     turn = np.exp(2j * math.pi * spacing / travel * x)
     for chunk in (cycles[i:i + 64] for i in range(0, len(cycles), 64)):
         wave = np.empty((len(chunk), len(x)), dtype=complex)
