@@ -240,3 +240,13 @@ def test_console_script_and_module_entry_point(tmp_path):
                               *SHORT], capture_output=True, text=True)
         assert run.returncode == 0, run.stderr
         assert json.loads(out.read_text())["law"] == "lugre"
+
+
+def test_the_python_sweep_refuses_nthread_with_a_scheduler_before_running():
+    """The library call names the pair too (it silently ran on the workers' threads)."""
+    from vibrofriction import sweep as sweep_module
+    from vibrofriction.errors import InputError
+    from vibrofriction.params import RigParameters, default_friction
+    with pytest.raises(InputError, match="nthread=2.*scheduler"):
+        sweep_module.sweep(RigParameters(), default_friction("dahl"), [3e-3], nthread=2,
+                           scheduler="tcp://127.0.0.1:9", progress=False)

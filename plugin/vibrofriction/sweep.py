@@ -14,6 +14,7 @@ from dataclasses import replace
 from typing import Any
 
 from . import rig as rig_module
+from .errors import InputError
 from .params import FrictionParameters, RigParameters, as_dict
 from .steady import (DEFAULT_TOLERANCE, MIN_WINDOWS, Convergence, SteadyRun, convergence_of_run,
                      run_until_steady)
@@ -57,6 +58,11 @@ def sweep(rig: RigParameters, friction: FrictionParameters, amplitudes: list[flo
           progress: bool = True, scheduler: Any = None) -> dict[str, Any]:
     """Run the sweep; return the docs/interfaces.md JSON object. Local rollout threads, or with
     ``scheduler`` (a Dask address or Client) one task per amplitude on that cluster."""
+    if nthread is not None and scheduler is not None:
+        # a Dask worker runs each amplitude on the threads it was started with
+        raise InputError(f"nthread={nthread} sets local rollout threads and cannot be combined "
+                         "with a scheduler, whose workers run on their own threads; pass one "
+                         "of them (start the workers with 'dask worker --nthreads N')")
     cases = [(replace(rig, vibration_velocity_amplitude_m_per_s=0.0), friction)]
     cases += [(replace(rig, vibration_velocity_amplitude_m_per_s=va), friction)
               for va in amplitudes]
