@@ -173,7 +173,8 @@ def report_markdown(result: Identification, rig_replay: dict | None = None) -> s
         "floor."), ""]
     lines += ["## The final model in MuJoCo", "",
               "Every fitted value is a field of FrictionParameters / RigParameters, i.e. a config "
-              "attribute of the `vibrofriction.friction` plugin (docs/simulation.md, Parameters):", "",
+              "attribute of the `vibrofriction.friction` plugin (docs/simulation.md, "
+              "Parameters):", "",
               "    vibrofriction simulate --law " + r.law + " " +
               " ".join(f"--set {k}={v:.6g}" for k, v in _set_values(r).items()), ""]
     if rig_replay:

@@ -94,7 +94,7 @@ STILL_WINDOWS = (0.125, 0.25, 0.5, 1.0)
 STILL_FRACTION = 0.1
 BASELINE_STARTS = 3
 CANDIDATE_EVALUATIONS = 12
-SCREENED_FITS = 3
+SCREENED_FITS = 3  # candidates fitted in full per round (the best linearized ones)
 # A candidate whose linearized fit lowers the weighted RMSE by less than this fraction of
 # MIN_IMPROVEMENT is not fitted in full (on a clean 0.4 s lab record three level effects were
 # fitted for 7 s each to fall 0.03 %) unless it is far from linear in its values: a Stribeck
@@ -102,7 +102,7 @@ SCREENED_FITS = 3
 LINEARIZED_DROP_FRACTION = 0.25
 _NONLINEAR_EFFECTS = ("stribeck", "sensor_lag")
 CONVERGED_LEADERS = 2  # justified candidates whose fits are converged before a round's choice
-_STEP_FRACTIONS = (1.0, 0.5, 0.25, 0.1)  # of a candidate's linearized step, tried at once  # candidates fitted in full per round (the best linearized ones)
+_STEP_FRACTIONS = (1.0, 0.5, 0.25, 0.1)  # of a candidate's linearized step, tried at once
 # mu F_N over the drive-force level (vibration lowers it), about 1.25 apart: at 1.6 apart a
 # position-only Dupont record's nearest levels were 24 % and 22 % off its own, the scan ranked a
 # stiff contact first and the fit selected three effects it does not have; from this grid it
@@ -271,8 +271,9 @@ class SimulationProblem:
 
     def scan_rss(self, model: Model, qs: Sequence[np.ndarray]) -> list[float]:
         """Weighted RSS of each point of a scan that only ranks its points, run at half the
-        substeps (about twice the timestep) where there is a coarser grid (the points differ by far more than the
-        simulator's error there; their RSS is not comparable with ``residuals``')."""
+        substeps (about twice the timestep) where there is a coarser grid (the points differ
+        by far more than the simulator's error there; their RSS is not comparable with
+        ``residuals``')."""
         runner = self.coarse_runner or self.runner
         outs = runner.run([self.case(model, model.values(q)) for q in qs])
         return [float(r @ r) for r in (self.weighted(o) for o in outs)]
@@ -1099,6 +1100,7 @@ def _ripple_wavelength(problem: SimulationProblem, current: SimFit) -> float:
     # the pair's Gram matrix and b their products with the residual, from the sums of
     # f^2 e^(2ikx) and f t e^(ikx); e^(ikx) by recurrence along k within slices of 64
     turn = np.exp(2j * math.pi * spacing / travel * x)
+    total = float(np.sum(f2))
     for chunk in (cycles[i:i + 64] for i in range(0, len(cycles), 64)):
         wave = np.empty((len(chunk), len(x)), dtype=complex)
         wave[0] = np.exp(2j * math.pi * chunk[0] / travel * x)
@@ -1106,7 +1108,6 @@ def _ripple_wavelength(problem: SimulationProblem, current: SimFit) -> float:
             np.multiply(wave[j - 1], turn, out=wave[j])
         double = (wave * wave) @ f2  # sum f^2 e^(2ikx)
         b = wave @ ft
-        total = float(np.sum(f2))
         gram = np.empty((len(chunk), 2, 2))
         gram[:, 0, 0] = 0.5 * (total - double.real)  # sin^2
         gram[:, 1, 1] = 0.5 * (total + double.real)  # cos^2
