@@ -120,6 +120,37 @@ def test_position_only_record_round_trip() -> None:
     assert abs(result.final.values["initial_velocity_m_per_s"]) < 1e-3 * RIG.vibration_velocity_amplitude_m_per_s
 
 
+def test_with_a_stribeck_curve_the_fit_moves_the_mean_friction_level_not_mu() -> None:
+    """The level coordinate: moving the curve's coordinates keeps mu <1 + (r - 1)
+    exp(-(v/v_s)^2)> over the model's speeds, and values come back from q as they went in."""
+    from vibrofriction.identify.model import Model, Scales
+    speeds = (1e-4, 5e-4, 1e-3, 2e-3)
+    scales = Scales(force_N=0.2, velocity_m_per_s=1e-3, normal_force_N=1.0, dt_s=1e-5,
+                    travel_m=1e-4, sliding_speeds_m_per_s=speeds)
+    model = Model.build("lugre", ("stribeck",), False, scales)
+    plain = Model.build("lugre", (), False, scales)
+    assert model.level_speeds_m_per_s == speeds and plain.level_speeds_m_per_s == ()
+    values = {"friction_coefficient": 0.22, "contact_stiffness_N_per_m": 9e7,
+              "bristle_damping_N_s_per_m": 1265.0, "static_ratio": 1.3,
+              "stribeck_velocity_m_per_s": 2e-3}
+    q = model.internal(values)
+    for name, value in model.internal_values(q).items():
+        assert value == pytest.approx(values[name], rel=1e-12), name
+
+    def mean_level(v: dict) -> float:
+        shape = 1 + (v["static_ratio"] - 1) * np.exp(
+            -(np.asarray(speeds) / v["stribeck_velocity_m_per_s"]) ** 2)
+        return v["friction_coefficient"] * float(np.mean(shape))
+
+    moved = np.array(q)
+    moved[model.names.index("static_ratio")] = 1.8
+    moved[model.names.index("stribeck_velocity_m_per_s")] -= 1.0
+    after = model.internal_values(moved)
+    assert after["static_ratio"] == pytest.approx(1.8)
+    assert after["friction_coefficient"] < values["friction_coefficient"]
+    assert mean_level(after) == pytest.approx(mean_level(values), rel=1e-12)
+
+
 @pytest.mark.parametrize("law, columns", [("coulomb", None), ("dupont", POSITION_ONLY)],
                          ids=["coulomb-all-columns", "dupont-position-only"])
 def test_a_noisy_record_round_trips_within_3_percent(law, columns) -> None:

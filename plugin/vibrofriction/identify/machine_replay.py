@@ -37,7 +37,7 @@ from ..datasets import Dataset, smoothed_derivative
 from ..errors import InputError
 from ..params import FrictionParameters, RigParameters
 from .replay import (SampleGrid, contact_at_rest, full_state, grid_steps, noise_sd,
-                     substeps_of_record, uniform_times)
+                     speed_quantiles, substeps_of_record, uniform_times)
 
 
 # A scene says how a record maps onto it in MJCF custom text elements (kept in the model):
@@ -376,6 +376,12 @@ class MachineReplay(SampleGrid):
     @property
     def not_applicable(self) -> dict[str, str]:
         return dict(NOT_APPLICABLE)
+
+    @property
+    def sliding_speeds_m_per_s(self) -> tuple[float, ...]:
+        """Quantiles of the joint's estimated speed (the fit's Stribeck level coordinate)."""
+        return speed_quantiles(self.time_s, self.measured.get("position_m"),
+                               self.velocity_scale_m_per_s)
 
     def start_levels(self, scan: Sequence[float]) -> tuple[float, list[float]]:
         """The friction level that scales the fit and the levels a start scan tries."""

@@ -211,6 +211,17 @@ class RigReplay(SampleGrid):
         v_rms = math.sqrt(float(np.mean(np.diff(self.control[:, 0]) ** 2))) / self.timestep_s
         return max(v_rms, abs(self.rig.drive_velocity_m_per_s))
 
+    @property
+    def sliding_speeds_m_per_s(self) -> tuple[float, ...]:
+        """Quantiles of the estimated sliding speed |slider - support| (the fit's Stribeck
+        level coordinate): the slider's from the measured position, else the drive's."""
+        c = self.control[:, 0]
+        support = np.diff(c, prepend=self.initial_support_position_m) / self.timestep_s
+        step_mid_s = self.time_s[0] + (np.arange(len(c)) + 0.5) * self.timestep_s
+        support_at_samples = np.interp(self.time_s, step_mid_s, support)
+        return speed_quantiles(self.time_s, self.measured.get("position_m"),
+                               self.rig.drive_velocity_m_per_s, support_at_samples)
+
     def start_levels(self, scan: Sequence[float]) -> tuple[float, list[float]]:
         """The friction level that scales the fit and the levels a start scan tries: the
         measured friction's, else the drive force's late mean times ``scan`` (vibration lowers
@@ -473,6 +484,21 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
         initial_support_velocity_m_per_s=float(support_velocity[0]),
         initial_drive_end_m=drive_end0, initial_friction_N=friction0, vibrating=vibrating,
         timestep_from_record=from_record, sliding_steps_per_sample=sliding)
+
+
+LEVEL_SPEED_QUANTILES = 64
+
+
+def speed_quantiles(time_s: np.ndarray, position_m: np.ndarray | None,
+                    fallback_velocity_m_per_s: float,
+                    support_velocity_m_per_s: np.ndarray | float = 0.0) -> tuple[float, ...]:
+    """Quantiles of |body velocity - support velocity| over a record: the body's from a
+    smoothed derivative of its measured position, else ``fallback_velocity_m_per_s``."""
+    body = smoothed_derivative(position_m, time_s) if position_m is not None else \
+        np.full(len(time_s), float(fallback_velocity_m_per_s))
+    speed = np.abs(body - support_velocity_m_per_s)
+    levels = (np.arange(LEVEL_SPEED_QUANTILES) + 0.5) / LEVEL_SPEED_QUANTILES
+    return tuple(float(v) for v in np.quantile(speed, levels))
 
 
 def sliding_timestep(sample_dt: float, substeps: int, frequency_Hz: float) -> float:
