@@ -14,8 +14,8 @@ import sys
 import time
 from pathlib import Path
 
-from ..cli import (UsageError, check_output_folder, check_replaceable_folder, check_writable,
-                   parse_overrides, write_json)
+from .common import (UsageError, check_output_folder, check_replaceable_folder, check_writable,
+                     parse_overrides, write_json)
 from ..datasets import Dataset, all_or_nothing, read_dataset
 from ..identify import EFFECTS, MIN_IMPROVEMENT, identify
 from ..identify.report import report_json, rig_replay, write_report

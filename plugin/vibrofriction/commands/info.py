@@ -18,7 +18,7 @@ import mujoco
 from .. import __version__, _build_info
 from .._mujoco_plugins import library_path
 from .._native import MujocoVersionMismatch, load
-from ..cli import write_json
+from .common import write_json
 
 HELP = ("show the versions, the plugin library and the plugins with their MJCF attributes "
         "(from MuJoCo's plugin registry)")

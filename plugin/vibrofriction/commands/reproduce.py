@@ -7,7 +7,7 @@ import shlex
 import sys
 from pathlib import Path
 
-from ..cli import add_common_arguments, check_replaceable_folder, parse_overrides, write_json
+from .common import add_common_arguments, check_replaceable_folder, parse_overrides, write_json
 from ..datasets import all_or_nothing, stage_folder
 from ..params import PAPER_CONTACT_STIFFNESS_N_PER_M, ParameterError, apply_overrides
 from ..study.claims import _clean, summary_json

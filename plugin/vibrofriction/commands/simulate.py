@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import rig as rig_module
-from ..cli import UsageError, add_common_arguments, parse_overrides, write_json
+from .common import UsageError, add_common_arguments, parse_overrides, write_json
 from ..datasets import (MIN_SAMPLE_INTERVAL_S, Dataset, DatasetMetadata, all_or_nothing,
                         sidecar_path, write_dataset)
 from ..params import FrictionParameters, RigParameters, apply_overrides, as_dict, default_friction

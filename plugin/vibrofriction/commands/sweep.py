@@ -11,7 +11,7 @@ import math
 import sys
 from dataclasses import replace
 
-from ..cli import UsageError, add_common_arguments, write_json
+from .common import UsageError, add_common_arguments, write_json
 from ..sweep import sweep, unconverged_lines
 from .simulate import add_run_arguments, parameters_from_args, run_settings
 
