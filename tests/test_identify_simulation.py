@@ -154,11 +154,14 @@ def test_with_a_stribeck_curve_the_fit_moves_the_mean_friction_level_not_mu() ->
     assert mean_level(after) == pytest.approx(mean_level(values), rel=1e-12)
 
 
-@pytest.mark.parametrize("law, columns", [("coulomb", None), ("dupont", POSITION_ONLY)],
-                         ids=["coulomb-all-columns", "dupont-position-only"])
+@pytest.mark.parametrize("law, columns", [("coulomb", None), ("dupont", POSITION_ONLY),
+                                          ("dahl", None)],
+                         ids=["coulomb-all-columns", "dupont-position-only", "dahl-all-columns"])
 def test_a_noisy_record_round_trips_within_3_percent(law, columns) -> None:
     """Realistic sensor noise on every column, inputs included (the support's motion is kept
-    to its vibration band): every law parameter within 3 %, nothing selected."""
+    to its vibration band): every law parameter within 3 %, nothing selected. (Dahl from all
+    columns came back +6 % in mu and +7 % in alpha before the channels were weighted by their
+    residuals' effective samples.)"""
     from vibrofriction.synthetic import with_sensor_noise
     record = with_sensor_noise(_record(law, columns))
     result = identify_by_simulation(record, law=law, declared=DECLARED.get(law, ()))
