@@ -152,6 +152,10 @@ def test_with_a_stribeck_curve_the_fit_moves_the_mean_friction_level_not_mu() ->
     assert after["static_ratio"] == pytest.approx(1.8)
     assert after["friction_coefficient"] < values["friction_coefficient"]
     assert mean_level(after) == pytest.approx(mean_level(values), rel=1e-12)
+    # a value beyond its bound is clipped before the level is formed: mu is kept
+    beyond = model.internal_values(model.internal({**values, "static_ratio": 8.0}))
+    assert beyond["static_ratio"] == 5.0
+    assert beyond["friction_coefficient"] == pytest.approx(values["friction_coefficient"])
 
 
 @pytest.mark.parametrize("law, columns", [("coulomb", None), ("dupont", POSITION_ONLY),

@@ -1,6 +1,8 @@
 """The package's layering, read from the sources: the command line is the top layer (no command
 imports it), and the independent oracle (scipy reference, analytic limits) reaches none of the
-native laws, not even through another module."""
+native laws, not even through another module of the package. (The package's own
+``__init__``, which every import of a submodule runs, loads the plugin library; it is not the
+oracle's code and is left out.)"""
 from __future__ import annotations
 
 import ast
@@ -13,8 +15,12 @@ PACKAGE = Path(vibrofriction.__file__).parent
 
 def _imports(path: Path) -> set[str]:
     """Modules ``path`` imports, as absolute names within the package where relative."""
-    module = ".".join(path.relative_to(PACKAGE.parent).with_suffix("").parts)
-    package = module.rsplit(".", 1)[0] if path.name != "__init__.py" else module
+    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+    if path.name == "__init__.py":  # a package: its relative imports start from itself
+        parts = parts[:-1]
+        package = ".".join(parts)
+    else:
+        package = ".".join(parts[:-1])
     out = set()
     for node in ast.walk(ast.parse(path.read_text())):
         if isinstance(node, ast.Import):
@@ -48,7 +54,7 @@ def _reached(start: str) -> set[str]:
     while todo:
         name = todo.pop()
         path = _module_path(name)
-        if path is None or name in seen:
+        if path is None or name in seen or name == "vibrofriction":  # (the package root)
             continue
         seen.add(name)
         todo.extend(_imports(path))
@@ -57,7 +63,7 @@ def _reached(start: str) -> set[str]:
 
 def test_no_command_imports_the_command_line() -> None:
     commands = sorted((PACKAGE / "commands").glob("*.py"))
-    assert len(commands) >= 8
+    assert len(commands) >= 10  # eight commands, common.py, __init__.py
     for path in commands:
         assert "vibrofriction.cli" not in _imports(path), path.name
 

@@ -49,7 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=version_line())
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, module_name in COMMANDS.items():
-        # (imported here, each when the parser is built: `--version` loads none of them)
+        # (imported when the parser is built, not when the package is)
         module = importlib.import_module(f".commands.{module_name}", __package__)
         # argparse %-formats help strings ("1 %" would break `vibrofriction --help`).
         p = sub.add_parser(name, help=module.HELP.replace("%", "%%"), description=module.HELP)

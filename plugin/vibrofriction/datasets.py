@@ -620,7 +620,7 @@ _OUTPUTS: contextvars.ContextVar[_Outputs | None] = contextvars.ContextVar(
 
 @contextlib.contextmanager
 def all_or_nothing() -> Iterator[None]:
-    """Outputs written in the block (write_dataset, cli.write_json, report.write_folder) are
+    """Outputs written in the block (write_dataset, commands.common.write_json, report.write_folder) are
     staged beside their targets and put in place together when the block ends: all of them,
     or on any error none, with every file and folder that was there kept as it was. An
     existing folder target is replaced as a whole. SIGTERM meanwhile raises SystemExit, so

@@ -253,7 +253,7 @@ class MachineReplay(SampleGrid):
     vibrating: bool = False
     timestep_from_record: bool = False
     lagged_sensor: str = "friction"
-    # the timestep scan judges the simulator's error in the fit's weights (see simulation.py)
+    # the timestep scan judges the simulator's error in the fit's channel sd (see simulation.py)
     timestep_in_fit_weights: bool = True
 
     @property

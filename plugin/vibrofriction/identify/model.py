@@ -196,8 +196,8 @@ class Model:
     # these sliding speeds, mu <g/mu F_N>, not mu. A record fixes that level tightly and the
     # curve's shape loosely: in (mu, static_ratio) the optimum lies at the end of a long
     # curved valley (measured: a noise-free position-only LuGre record with static ratio 1.3
-    # came back at 1.01 and mu +14 %; in the level coordinate the same starts reach the truth
-    # exactly). Empty: mu itself.
+    # came back at 1.01-1.02 and mu +14 %; in the level coordinate, with the restarts of
+    # ``simulation._STRIBECK_RESTARTS``, exactly). Empty: mu itself.
     level_speeds_m_per_s: tuple[float, ...] = ()
 
     @classmethod
@@ -226,7 +226,9 @@ class Model:
 
     def internal(self, values: Mapping[str, float]) -> np.ndarray:
         """q for the given named internal values (missing ones: the table's neutral value)."""
-        named = {p.name: values.get(p.name, _neutral(p)) for p in self.params}
+        # (within the bounds before the level is formed: the clipped curve is the one run)
+        named = {p.name: min(max(values.get(p.name, _neutral(p)), p.lower), p.upper)
+                 for p in self.params}
         if self.level_speeds_m_per_s:
             named["friction_coefficient"] *= self._mean_shape(named)
         q = np.array([p.to_internal(named[p.name]) for p in self.params])

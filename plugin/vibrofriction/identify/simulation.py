@@ -230,8 +230,9 @@ class SimulationProblem:
         white noise (the integral of a noisy measured input, the simulator's own error) then
         weighs by how well it is actually predicted and by how many independent samples its
         misfit has, not by its sensor's resolution and sample count. (Measured on a 60 ms
-        Dahl record with every column noisy: the position, wandering 2 nm with the support's
-        measured motion, pulled mu and alpha +5 % and +6 %; weighted so, +0.4 % and +0.5 %.)"""
+        Dahl record with every column noisy: the position, about 2 nm rms off at the true
+        values, 1 nm of it noise, the rest wandering with the support's measured motion,
+        pulled mu and alpha +5 % and +6 %; weighted so, +0.4 % and +0.5 %.)"""
         n = self.train.n
         for j, channel in enumerate(self.train.channels):
             raw = fit.residual[j * n:(j + 1) * n] / self.weights[channel]
@@ -356,21 +357,31 @@ class SimulationProblem:
         return np.column_stack([(r - r0) / h for r, h in zip(columns, steps)])
 
     def standard_errors(self, fit: SimFit) -> dict[str, float | None]:
-        """Standard error of each fitted value: the Gauss-Newton covariance
-        s^2 (J^T J)^-1 in the internal coordinates, s^2 the weighted residual variance scaled
-        by n / n_eff (a correlated residual carries less information than its sample count),
-        mapped to each value by its derivatives in the coordinates. Values of a sine/cosine pair
-        (ripple, modulation) are left out: their amplitude and phase are not coordinates."""
+        """Standard error of each fitted value: the sandwich covariance
+        (J^T J)^-1 (sum_c v_c J_c^T J_c) (J^T J)^-1 in the internal coordinates, J_c channel
+        c's rows of the weighted Jacobian and v_c its weighted residual's mean square scaled by
+        n / n_eff of that channel (a correlated residual carries less information than its
+        sample count; the channels' weights differ from 1 / their sd by their effective sample
+        share, ``reweight``), mapped to each value by its derivatives in the coordinates.
+        Values of a sine/cosine pair (ripple, modulation) are left out: their amplitude and
+        phase are not coordinates."""
         jacobian = self.jacobian(fit.model, fit.q, fit.residual)
-        n, k = len(fit.residual), fit.k
-        variance = fit.rss / max(n - k, 1) * n / max(fit.n_eff, k + 1.0)
+        n_all, k = len(fit.residual), fit.k
         names = [p.name for p in fit.model.params if p.name in fit.values]
         # (J^T J)^-1 = V diag(1/s^2) V^T from J's singular values; a direction the record
         # does not inform (s below 1e-6 of the largest) leaves every error undefined, not huge
         _, singular, vt = np.linalg.svd(jacobian, full_matrices=False)
         if singular.size < k or not singular[-1] > 1e-6 * singular[0]:
             return {name: None for name in names}
-        covariance = variance * (vt.T / singular ** 2) @ vt
+        bread = (vt.T / singular ** 2) @ vt
+        meat = np.zeros((k, k))
+        n = self.train.n
+        for j in range(len(self.train.channels)):
+            rows = slice(j * n, (j + 1) * n)
+            r = fit.residual[rows]
+            v = float(r @ r) / n * n / max(effective_samples(r), 2.0)
+            meat += v * jacobian[rows].T @ jacobian[rows]
+        covariance = n_all / max(n_all - k, 1) * bread @ meat @ bread
         # d value / d q by differences (a value may depend on several coordinates: mu on the
         # level and the Stribeck curve's)
         at = fit.model.internal_values(fit.q)
@@ -512,8 +523,8 @@ def _converged_timestep(problem: SimulationProblem, train: Dataset, law: str,
     sd = dict(problem.noise)
     if getattr(problem.train, "timestep_in_fit_weights", False):
         # A machine's friction model misses the record by far more than its sensors' noise:
-        # judged in the weights the fit will use (each channel's sd at least the start's
-        # residual rms; the baseline is checked again in its own), not in white-noise units.
+        # judged in each channel's sd as the fit will take it (at least the start's residual
+        # rms; the baseline is checked again in its own), not in white-noise units.
         for c in problem.train.channels:
             rms = math.sqrt(float(np.mean((coarse[c] - problem.train.measured[c]) ** 2)))
             sd[c] = max(sd[c], rms)
@@ -1104,7 +1115,8 @@ def _stribeck_restarts(model: Model, best: SimFit) -> list[dict[str, float]]:
     out = []
     for ratio, speed in _STRIBECK_RESTARTS:
         q = np.array(best.q, dtype=float)
-        q[names.index("static_ratio")] = ratio  # (its scale is 1)
+        q[names.index("static_ratio")] = model.params[names.index("static_ratio")].to_internal(
+            ratio)
         q[names.index("stribeck_velocity_m_per_s")] = v_s.to_internal(speed * v_s.scale)
         out.append(model.internal_values(q))
     return out

@@ -169,7 +169,7 @@ def report_markdown(result: SimIdentification) -> str:
              (", on a grid sliding along the vibration" if replay.sliding else "") +
              f"); {r.simulations} simulations in {r.seconds:.1f} s",
              f"- record: `{replay.name}`, {replay.n} samples; measured outputs: " +
-             ", ".join(f"{c} (white-noise sd {replay.noise[c]:.3g}, weighted by sd "
+             ", ".join(f"{c} (white-noise sd {replay.noise[c]:.3g}, sd in the fit "
                        f"{r.settings['noise_sd'][c]:.3g} {_UNITS[c]})"
                        for c in replay.channels),
              "- held-out records: " + (", ".join(f"`{v.name}`" for v in r.validation) or
