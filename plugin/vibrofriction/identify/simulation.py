@@ -114,14 +114,15 @@ _STEP_FRACTIONS = (1.0, 0.5, 0.25, 0.1)  # of a candidate's linearized step, tri
 _LEVEL_SCAN = (1.0, 1.25, 1.6, 2.0, 2.5, 3.2, 4.0, 5.0, 6.3)
 _DEFLECTION_SCAN_M = np.logspace(-10, -5, 16)  # characteristic deflection mu F_N / k_t
 _BREAKAWAY_SCAN = (0.3, 0.6, 0.85)  # Dupont
-_STRIBECK_SCAN = np.logspace(-1.5, 0.5, 6)  # v_s over the rms sliding velocity
+_STRIBECK_SCAN = np.logspace(-1.5, 0.5, 6)  # v_s over the velocity scale (rms support speed)
 _STRIBECK_RATIOS = (1.2, 1.5, 2.0)
 _STRIBECK_STARTS = 3  # grid points a Stribeck candidate is fitted from
-# A declared Stribeck curve is fitted again from these (static ratio, v_s over the rms sliding
-# velocity), the best baseline's other values kept (its level coordinate too). From a scan's
-# start the contact is far off, the fit flattens the peak on the way (static ratio 1, where
-# v_s has no gradient) and stays there: measured on a noise-free position-only LuGre record
-# (ratio 1.3, v_s 1.9 v_rms), which came back at ratio 1.02; from (1.2, 1) it is exact.
+# A declared Stribeck curve is fitted again from these (static ratio, v_s over the velocity
+# scale: the rms support speed, or the drive speed if larger), the best baseline's other values
+# kept (its level coordinate too). From a scan's start the contact is far off, the fit flattens
+# the peak on the way (static ratio 1, where v_s has no gradient) and stays there: measured on
+# a noise-free position-only LuGre record (ratio 1.3, v_s 1.9 times the scale), which came back
+# at ratio 1.02; from (1.2, 1) it is exact.
 _STRIBECK_RESTARTS = ((1.2, 1.0), (1.2, 3.0))
 _OTHER_STARTS = "further starts"  # key of a start dict: more starts for the same candidate
 
