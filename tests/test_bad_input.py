@@ -189,7 +189,8 @@ def test_outputs_are_all_or_nothing_when_the_last_one_fails(tmp_path, monkeypatc
     assert cli.main(["simulate", "--csv", "run.csv", *SHORT]) == 0
     capsys.readouterr()
     before = _files(tmp_path)
-    monkeypatch.setattr(cli, "check_writable", lambda *args, **kwargs: None)
+    from vibrofriction.commands import common  # (where the output checks live)
+    monkeypatch.setattr(common, "check_writable", lambda *args, **kwargs: None)
     code = cli.main(["simulate", "--csv", "run.csv", "--json", "/proc/x.json", *SHORT,
                      "--set", "mass_kg=0.7"])
     _one_line_exit_2(capsys, code, "/proc/x.json: cannot write")
