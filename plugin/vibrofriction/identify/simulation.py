@@ -380,7 +380,7 @@ class SimulationProblem:
         for j in range(len(self.train.channels)):
             rows = slice(j * n, (j + 1) * n)
             r = fit.residual[rows]
-            v = float(r @ r) / n * n / max(effective_samples(r), 2.0)
+            v = float(r @ r) / max(effective_samples(r), 2.0)  # mean square * n / n_eff
             meat += v * jacobian[rows].T @ jacobian[rows]
         covariance = n_all / max(n_all - k, 1) * bread @ meat @ bread
         # d value / d q by differences (a value may depend on several coordinates: mu on the
@@ -715,16 +715,14 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
         # modulation's mean) is dropped when the model without it is as good by the same test.
         for earlier in [e for e in selected[:-1] if e not in declared]:
             current = _drop_if_unneeded(problem, current, earlier, selected, dropped,
-                                        f"round {index}", bic_threshold, say, law, fit_mass,
-                                        scales)
+                                        f"round {index}", bic_threshold, say, scales)
     if selected and selected[-1] not in declared:
         # ... and the last choice too, once nothing more is chosen: a fit that found its way
         # out of a poor baseline's basin through an effect may no longer need it (measured: a
         # staged noise-free position-only Dahl record selected an offset of 1.6e-9 N, its law
         # exact; the baseline had stopped 0.7 % off)
         current = _drop_if_unneeded(problem, current, selected[-1], selected, dropped,
-                                    "after the last round", bic_threshold, say, law, fit_mass,
-                                    scales)
+                                    "after the last round", bic_threshold, say, scales)
     say("selected: " + (", ".join(selected) if selected else "nothing"))
     errors = problem.standard_errors(current)
     say("final: " + ", ".join(f"{n} {current.values[n]:.6g}" +
@@ -752,12 +750,12 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
 
 def _drop_if_unneeded(problem: SimulationProblem, current: SimFit, effect: str,
                       selected: list[str], dropped: dict[str, str], when: str,
-                      bic_threshold: float, say: ProgressFn, law: str, fit_mass: bool,
-                      scales: Scales) -> SimFit:
+                      bic_threshold: float, say: ProgressFn, scales: Scales) -> SimFit:
     """``current`` without ``effect`` (removed from ``selected``, noted in ``dropped``) when
     the model without it passes the selection's test against it; else ``current``."""
-    reduced = Model.build(law, [e for e in current.model.effects if e != effect], fit_mass,
-                          scales, current.model.base, current.model.state, current.model.scene)
+    model = current.model
+    reduced = Model.build(model.law, [e for e in model.effects if e != effect], model.fit_mass,
+                          scales, model.base, model.state, model.scene)
     start = {k: v for k, v in current.model.internal_values(current.q).items()
              if k in reduced.names}
     without = problem.fit(reduced, start, BASELINE_EVALUATIONS)
