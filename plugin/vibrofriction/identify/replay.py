@@ -84,6 +84,9 @@ RIG_MODEL = "rig"  # the sidecar's "model" of a rig record (the default when abs
 # Unit normal load when the record gives none: the fitted coefficient is then the level in N.
 UNIT_NORMAL_FORCE_N = 1.0
 _ELASTIC_FRACTION = 0.9  # initial deflection at most this fraction of the sliding deflection
+# A segment of a segmented replay (``Replayer(segment_steps=...)``) starts from the slider's
+# position and velocity of a least-squares parabola through this many samples either side.
+SEGMENT_SMOOTHING_SAMPLES = 5
 
 
 class SampleGrid:
@@ -150,14 +153,35 @@ def uniform_times(dataset: Dataset, where: str, sample_dt: Callable[[np.ndarray]
     return t, interval
 
 
+def deflection_at_rest(friction: FrictionParameters, force_N: float,
+                       normal_force_N: float) -> float:
+    """The element's deflection holding ``force_N`` at rest, within the elastic range (below
+    the static level mu F_N max(1, static_ratio)); 0 for Coulomb."""
+    if friction.law == "coulomb":
+        return 0.0
+    bound = _ELASTIC_FRACTION * friction.friction_coefficient * \
+        max(1.0, friction.static_ratio) * normal_force_N
+    return min(max(force_N, -bound), bound) / friction.contact_stiffness_N_per_m
+
+
 def contact_at_rest(model: mujoco.MjModel, data: mujoco.MjData, friction: FrictionParameters,
                     force_N: float, normal_force_N: float) -> None:
-    """The element's deflection holding ``force_N`` (within the elastic range) in
-    ``data.act``; nothing for Coulomb."""
+    """``deflection_at_rest`` in ``data.act``; nothing for Coulomb."""
     if friction.law != "coulomb" and model.na:
-        bound = _ELASTIC_FRACTION * friction.friction_coefficient * normal_force_N
-        force = min(max(force_N, -bound), bound)
-        data.act[model.actuator("friction").actadr] = force / friction.contact_stiffness_N_per_m
+        data.act[model.actuator("friction").actadr] = deflection_at_rest(
+            friction, force_N, normal_force_N)
+
+
+def slider_state(model: mujoco.MjModel, states: np.ndarray) -> np.ndarray:
+    """(position, velocity, deflection) of the rig's slider in full-physics states
+    (... x nstate; the deflection 0 without a friction state)."""
+    table, slider = model.joint("table_slide"), model.joint("slider_on_table")
+    qvel = 1 + model.nq  # mjSTATE_FULLPHYSICS: time, qpos, qvel, act, ...
+    x = states[..., 1 + table.qposadr[0]] + states[..., 1 + slider.qposadr[0]]
+    v = states[..., qvel + table.dofadr[0]] + states[..., qvel + slider.dofadr[0]]
+    z = states[..., qvel + model.nv + model.actuator("friction").actadr[0]] if model.na \
+        else np.zeros_like(x)
+    return np.stack([x, v, z], axis=-1)
 
 
 def full_state(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
@@ -244,6 +268,56 @@ class RigReplay(SampleGrid):
         level = float(np.mean(np.abs(drive[len(drive) // 2:])))
         return max(level, 1e-9), [level * r for r in scan]
 
+    def slider_estimate(self, step: int, friction: FrictionParameters,
+                        mass_kg: float) -> np.ndarray:
+        """The slider's (position, velocity, deflection) at the start of ``step`` from the
+        record: a least-squares parabola through the measured positions around (the
+        measured velocity where there is one), the contact at rest holding the measured
+        friction (else the drive force less mass times the parabola's acceleration; within
+        the elastic range; 0 for Coulomb)."""
+        t = self.time_s[0] + step * self.timestep_s
+        sample_dt = float(self.time_s[1] - self.time_s[0])
+        width = 2 * SEGMENT_SMOOTHING_SAMPLES + 1
+        first = min(max(0, int(round((t - self.time_s[0]) / sample_dt)) -
+                        SEGMENT_SMOOTHING_SAMPLES), self.n - width)
+        window = slice(first, first + width)
+        curvature, slope, position = np.polyfit(self.time_s[window] - t,
+                                                self.measured["position_m"][window], 2)
+        velocity = float(np.interp(t, self.time_s, self.measured["velocity_m_per_s"])) \
+            if "velocity_m_per_s" in self.measured else float(slope)
+        if "friction_force_N" in self.measured:
+            force = float(np.interp(t, self.time_s, self.measured["friction_force_N"]))
+        else:
+            force = float(np.interp(t, self.time_s, self.measured["drive_force_N"])) - \
+                mass_kg * 2.0 * float(curvature)
+        return np.array([float(position), velocity,
+                         deflection_at_rest(friction, force, self.rig.normal_force_N)])
+
+    def segment_state(self, model: mujoco.MjModel, friction: FrictionParameters,
+                      data: mujoco.MjData, step: int, mass_kg: float,
+                      offset: Sequence[float] | None = None) -> np.ndarray:
+        """The state at the start of ``step`` (at least 2): the table and the drive end where
+        their controls put them, the slider at ``slider_estimate`` (+ ``offset``)."""
+        mujoco.mj_resetData(model, data)
+        h = self.timestep_s
+        data.time = step * h
+        x, v, z = self.slider_estimate(step, friction, mass_kg) + (
+            0.0 if offset is None else np.asarray(offset, dtype=float))
+        c = self.control
+        table = c[step - 1, 0]
+        table_velocity = (c[step, 0] - c[step - 2, 0]) / (2 * h)
+        joint = {name: model.joint(name) for name in
+                 ("table_slide", "slider_on_table", "drive_end_slide")}
+        data.qpos[joint["table_slide"].qposadr[0]] = table
+        data.qpos[joint["slider_on_table"].qposadr[0]] = x - table
+        data.qpos[joint["drive_end_slide"].qposadr[0]] = c[step - 1, 1]
+        data.qvel[joint["table_slide"].dofadr[0]] = table_velocity
+        data.qvel[joint["slider_on_table"].dofadr[0]] = v - table_velocity
+        data.qvel[joint["drive_end_slide"].dofadr[0]] = self.rig.drive_velocity_m_per_s
+        if friction.law != "coulomb" and model.na:
+            data.act[model.actuator("friction").actadr[0]] = z
+        return full_state(model, data)
+
     def halved(self) -> "RigReplay":
         """The same replay at half the timestep: the step ends in between by linear
         interpolation of the controls (they already follow the measured motion's spline)."""
@@ -305,13 +379,26 @@ class RigReplay(SampleGrid):
 
 
 class Replayer:
-    """Runs parameter sets through a replay on a pool of rollout threads."""
+    """Runs parameter sets through a replay on a pool of rollout threads.
 
-    def __init__(self, replay: RigReplay, threads: int | None = None):
+    With ``segment_steps`` (the steps where segments start, each at least 2, increasing) each
+    case runs as segments in parallel: the first from the record's start, each other from the
+    record's state at its start (``RigReplay.segment_state``), each up to the next one's
+    start. An error of the model then carries over at most one segment (multiple shooting
+    with the segments' start states estimated from the record instead of fitted)."""
+
+    def __init__(self, replay: RigReplay, threads: int | None = None,
+                 segment_steps: Sequence[int] = ()):
         self.replay = replay
         self.threads = max(1, threads or rig_module._cpu_count())
         self._pool = mj_rollout.Rollout(nthread=self.threads)
         self.simulations = 0
+        self.segment_starts = [0, *segment_steps]
+        ends = [*segment_steps, replay.nstep]
+        self.segment_lengths = [b - a for a, b in zip(self.segment_starts, ends)]
+        if min(self.segment_lengths) < 1 or (segment_steps and min(segment_steps) < 2):
+            raise ValueError(f"segment starts {list(segment_steps)} must increase from step 2 "
+                             f"below the replay's {replay.nstep} steps")
 
     def close(self) -> None:
         self._pool.close()
@@ -328,34 +415,68 @@ class Replayer:
         FrictionParameters[, initial-state values for ``initial_state``[, a scene's named
         values]]) (``extra`` adds unmeasured channels, e.g. friction_force_N and
         relative_position_m of a drive record)."""
+        return self._run(cases, extra, None)[0]
+
+    def shoot(self, cases: Sequence[tuple], start_offsets: Sequence[np.ndarray]
+              ) -> tuple[list[dict[str, np.ndarray]], list[np.ndarray]]:
+        """Multiple shooting: ``run`` with each segment after the first started
+        ``start_offsets[case][j - 1]`` = (position, velocity, deflection) away from the
+        record's state (``RigReplay.segment_state``); also returns, per case, the slider's
+        (position, velocity, deflection) at the end of every segment but the last (where the
+        next one starts: the continuity)."""
+        return self._run(cases, (), start_offsets)
+
+    def _run(self, cases: Sequence[tuple], extra: Sequence[str],
+             start_offsets: Sequence[np.ndarray] | None
+             ) -> tuple[list[dict[str, np.ndarray]], list[np.ndarray]]:
         replay = self.replay
         names = list(replay.channels) + [c for c in extra if c not in replay.channels]
         models = [replay.model(case[0], case[1], *([case[3]] if len(case) > 3 and case[3]
                                                    else []), outputs=names)
                   for case in cases]
         out: list[dict[str, np.ndarray] | None] = [None] * len(models)
+        ends: list[np.ndarray | None] = [None] * len(models)
         # One rollout per state size (a sensor lag adds a plugin state).
         groups: dict[int, list[int]] = {}
         for i, m in enumerate(models):
             groups.setdefault(m.nplugin and int(np.sum(m.plugin_statenum)), []).append(i)
         chunks = [members[k:k + _CASES_PER_ROLLOUT] for members in groups.values()
                   for k in range(0, len(members), _CASES_PER_ROLLOUT)]
+        segments, steps = len(self.segment_starts), max(self.segment_lengths)
+        if segments > 1:  # each segment's controls, the last held where a segment is shorter
+            padded = np.concatenate([replay.control,
+                                     np.repeat(replay.control[-1:], steps, axis=0)])
+            control = np.stack([padded[k:k + steps] for k in self.segment_starts])
+        else:
+            control = replay.control[None]
         for members in chunks:  # rollout keeps every step of every case: bound the memory
-            group = [models[i] for i in members]
+            group = [models[i] for i in members for _ in range(segments)]
             datas = [mujoco.MjData(group[0]) for _ in range(self.threads)]
-            states = np.stack([replay.initial_state(models[i], cases[i][1], datas[0],
-                                                    **(cases[i][2] if len(cases[i]) > 2
-                                                       else {}))
-                               for i in members])
-            control = np.broadcast_to(replay.control, (len(group), *replay.control.shape))
-            _, sensordata = self._pool.rollout(group, datas, states,
-                                               np.ascontiguousarray(control),
-                                               nstep=replay.nstep)
+            states = []
+            for i in members:
+                states.append(replay.initial_state(models[i], cases[i][1], datas[0],
+                                                   **(cases[i][2] if len(cases[i]) > 2
+                                                      else {})))
+                states.extend(replay.segment_state(
+                    models[i], cases[i][1], datas[0], step, cases[i][0].mass_kg,
+                    None if start_offsets is None else start_offsets[i][j])
+                    for j, step in enumerate(self.segment_starts[1:]))
+            controls = np.broadcast_to(control, (len(members), *control.shape))
+            state, sensordata = self._pool.rollout(
+                group, datas, np.stack(states),
+                np.ascontiguousarray(controls.reshape(len(group), steps, -1)), nstep=steps)
+            sensordata = sensordata.reshape(len(members), segments, steps, -1)
+            state = state.reshape(len(members), segments, steps, -1)
             for k, i in enumerate(members):
-                out[i] = replay.outputs(models[i], cases[i][0],
-                                        replay.at_samples(sensordata[k]), names)
+                rows = np.concatenate([sensordata[k, j, :length] for j, length in
+                                       enumerate(self.segment_lengths)])
+                out[i] = replay.outputs(models[i], cases[i][0], replay.at_samples(rows), names)
+                if start_offsets is not None:  # (state row L - 1: after L steps)
+                    ends[i] = slider_state(models[i], np.array(
+                        [state[k, j, length - 1]
+                         for j, length in enumerate(self.segment_lengths[:-1])]))
         self.simulations += len(models)
-        return out
+        return out, ends
 
 
 def _channels(model: mujoco.MjModel, rig: RigParameters, sensordata: np.ndarray,
@@ -495,6 +616,59 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
         initial_support_velocity_m_per_s=float(support_velocity[0]),
         initial_drive_end_m=drive_end0, initial_friction_N=friction0, vibrating=vibrating,
         timestep_from_record=from_record, sliding_steps_per_sample=sliding)
+
+
+# Stick phases (``stick_phase_steps``): between two slips (speed relative to the support above
+# ``SLIP_FRACTION`` of its 95th percentile), the sample closest to rest, where speed and
+# acceleration over their 95th percentiles add up to less than ``STICK_FRACTION``. (Speed alone
+# also takes the turning points of the contact's ringing after a slip, where the slider is not
+# at rest: measured there, the deflection at equilibrium 8 % off and the velocity 62 um/s,
+# against 0.2 % and 4 um/s at the sample closest to rest.)
+SLIP_FRACTION = 0.5
+STICK_FRACTION = 0.05
+MIN_STICK_SAMPLES = 2 * SEGMENT_SMOOTHING_SAMPLES + 1
+MAX_SEGMENTS = 64
+
+
+def stick_phase_steps(replay: RigReplay) -> list[int]:
+    """The step at the sample closest to rest between each two slips (at most
+    ``MAX_SEGMENTS`` - 1, evenly picked): where a segmented replay's segments start, since a
+    sticking slider's state is best known there (at rest, its contact holding the measured
+    force). Empty without a measured position, or where the support moves (rms velocity above
+    ``STICK_FRACTION`` of the slider's 95th-percentile speed relative to it)."""
+    if "position_m" not in replay.measured or replay.n < 4 * MIN_STICK_SAMPLES:
+        return []
+    support = np.diff(replay.control[:, 0], prepend=replay.initial_support_position_m) / \
+        replay.timestep_s
+    step_mid_s = replay.time_s[0] + (np.arange(len(support)) + 0.5) * replay.timestep_s
+    velocity = smoothed_derivative(replay.measured["position_m"], replay.time_s,
+                                   SEGMENT_SMOOTHING_SAMPLES) - \
+        np.interp(replay.time_s, step_mid_s, support)
+    acceleration = smoothed_derivative(velocity, replay.time_s, SEGMENT_SMOOTHING_SAMPLES)
+    speed_95 = float(np.quantile(np.abs(velocity), 0.95))
+    # (a vibrating support: the slider is never at rest on it for long, and turning points of
+    # its relative motion while the vibration ramps up would pass for stick phases)
+    if not speed_95 > 0 or math.sqrt(float(np.mean(support ** 2))) > STICK_FRACTION * speed_95:
+        return []
+    from_rest = np.abs(velocity) / speed_95 + np.abs(acceleration) / max(
+        float(np.quantile(np.abs(acceleration), 0.95)), 1e-300)
+    slipping = np.abs(velocity) > SLIP_FRACTION * speed_95
+    changes = np.flatnonzero(np.diff(slipping.astype(int))) + 1
+    runs = np.split(np.arange(replay.n), changes)
+    slips = [run for run in runs if slipping[run[0]]]
+    starts = []
+    for before, after in zip(slips[:-1], slips[1:]):
+        a, b = before[-1] + 1, after[0]
+        if b - a < MIN_STICK_SAMPLES:
+            continue
+        sample = a + int(np.argmin(from_rest[a:b]))
+        step = int(round(sample * replay.steps_per_sample))
+        if from_rest[sample] < STICK_FRACTION and 2 <= step < replay.nstep - 1:
+            starts.append(step)
+    if len(starts) >= MAX_SEGMENTS:
+        starts = [starts[int(i)] for i in
+                  np.linspace(0, len(starts) - 1, MAX_SEGMENTS - 1).round()]
+    return starts
 
 
 LEVEL_SPEED_QUANTILES = 64

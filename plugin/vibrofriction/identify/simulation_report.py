@@ -18,7 +18,7 @@ from ..params import RigParameters
 from ..provenance import json_text
 from .model import EFFECT_FIELDS, EFFECTS
 from .report import write_folder
-from .simulation import SimFit, SimIdentification
+from .simulation import MIN_SLIPS, SimFit, SimIdentification
 
 _UNITS = {"position_m": "m", "velocity_m_per_s": "m/s", "acceleration_m_per_s2": "m/s^2",
           "drive_force_N": "N", "friction_force_N": "N"}
@@ -148,6 +148,20 @@ def set_line(result: SimIdentification) -> str:
     return " ".join(parts)
 
 
+def _baseline_start_line(result: SimIdentification) -> str:
+    """Where the baseline fit started, and why a stick-slip record was also replayed as
+    segments."""
+    phases = result.settings.get("stick_phases", 0)
+    line = f"- baseline: started from {result.settings.get('baseline_start')}"
+    if phases >= MIN_SLIPS:
+        line += (f". The record shows {phases} stick phases after a slip, so it was also "
+                 f"replayed as {phases + 1} segments started there (a whole-record fit of "
+                 "stick-slip stays near its start): segmented fits, then multiple shooting "
+                 "with the segments' start states fitted, gave the whole-record fit more "
+                 "starts")
+    return line + "."
+
+
 def report_markdown(result: SimIdentification) -> str:
     r = result
     replay = r.train
@@ -164,6 +178,7 @@ def report_markdown(result: SimIdentification) -> str:
               "friction plugin, driven by the record's support motion and the drive end's "
               "motion; its sensors predict what the record measured.") +
              " Nothing measured is differentiated to form the prediction.",
+             _baseline_start_line(r),
              f"- MuJoCo timestep {replay.timestep_s:.4g} s ({replay.steps_per_sample:.4g} "
              "step(s) a sample" +
              (", on a grid sliding along the vibration" if replay.sliding else "") +
