@@ -501,3 +501,18 @@ def test_a_stick_slip_record_round_trips_through_multiple_shooting() -> None:
     for name in LAW_FIELDS["lugre"]:
         assert result.final.values[name] == pytest.approx(getattr(STICK_SLIP, name),
                                                           rel=0.01), name
+
+
+def test_a_vibrometer_showing_only_noise_leaves_the_support_still() -> None:
+    """A support that does not vibrate, measured by a noisy vibrometer: its noise is not
+    replayed as motion (it would dither the contact); a vibration of 3 noise sd (twice the
+    threshold) is kept."""
+    from vibrofriction import synthetic
+    still = synthetic.with_sensor_noise(_stick_slip_record(0.03))
+    replay = prepare_replay(still)
+    assert not replay.vibrating
+    assert np.ptp(replay.control[:, 0]) == 0.0
+    weak = RigParameters(vibration_velocity_amplitude_m_per_s=60e-6)
+    run = rig.simulate(weak, LAWS["dahl"], timestep_s=rig.recommended_timestep(weak),
+                       duration_s=0.03)
+    assert prepare_replay(synthetic.with_sensor_noise(dataset_of(run, "weak"))).vibrating

@@ -129,7 +129,9 @@ _STRIBECK_RESTARTS = ((1.2, 1.0), (1.2, 3.0))
 # A stick-slip record's segmented replay (``_segmented_starts``): its scan's shapes, how many
 # of the scan's best points are fitted on it, and with how many evaluations each.
 MIN_SLIPS = 2
-SEGMENTED_SCAN_RATIOS = (1.2, 1.6, 2.2)
+SEGMENTED_PEAK_SCAN = (0.9, 1.0, 1.1)  # of the largest measured force
+SEGMENTED_SCAN_RATIOS = (1.1, 1.2, 1.35, 1.6, 2.0, 2.5)
+SEGMENTED_ALPHA_SCAN = (0.7, 1.4, 2.8)
 SEGMENTED_SCAN_SPEEDS = (0.3, 1.0, 3.0)  # v_s over the velocity scale
 SEGMENTED_STARTS = 3
 SEGMENTED_EVALUATIONS = 60
@@ -938,7 +940,13 @@ def _segmented_starts(problem: SimulationProblem, model: Model, say: ProgressFn
         shapes = [{}]
         if problem.law == "dupont":
             shapes = [{"breakaway_ratio": b} for b in _BREAKAWAY_SCAN]
+        if problem.law == "dahl":  # (the shape of Dahl's loading curve, up to the slip)
+            shapes = [{"alpha": a} for a in SEGMENTED_ALPHA_SCAN]
         if "stribeck" in model.effects:
+            # The slips start where the spring's force reaches the static level (the peak
+            # scanned): near the largest measured force.
+            force = replay.measured.get("friction_force_N", replay.measured.get("drive_force_N"))
+            levels = [float(np.max(np.abs(force))) * f for f in SEGMENTED_PEAK_SCAN]
             v_scale = next(p for p in model.params
                            if p.name == "stribeck_velocity_m_per_s").scale
             shapes = [{**shape, "static_ratio": ratio, "stribeck_velocity_m_per_s": r * v_scale}
