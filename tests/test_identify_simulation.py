@@ -433,7 +433,7 @@ def _stick_slip_record(duration_s: float) -> Dataset:
                    metadata=dataset.metadata)
 
 
-def _slider_truth(replay, steps):
+def _slider_truth(replay):
     """The whole run's model, its slider state (position, velocity, deflection) after every
     step and its predicted channels, at the true values."""
     from mujoco import rollout
@@ -453,7 +453,7 @@ def test_stick_phases_are_found_once_between_two_slips_where_the_slider_rests() 
     from vibrofriction.identify.replay import stick_phase_steps
     replay = prepare_replay(_stick_slip_record(0.1))
     steps = stick_phase_steps(replay)
-    rig_values, truth = _slider_truth(replay, steps)
+    rig_values, truth = _slider_truth(replay)
     speed = np.abs(truth[:, 1])
     slips = np.flatnonzero(np.diff((speed > 0.5 * speed.max()).astype(int)) == 1)
     assert len(steps) == len(slips) - 1 >= 4  # one stick phase between each two slips
@@ -475,7 +475,7 @@ def test_segments_started_from_the_true_states_join_into_the_whole_run() -> None
     replay = prepare_replay(_stick_slip_record(0.06))
     steps = stick_phase_steps(replay)
     assert len(steps) >= 2
-    rig_values, truth = _slider_truth(replay, steps)
+    rig_values, truth = _slider_truth(replay)
     offsets = np.array([truth[step - 1] - replay.slider_estimate(step, STICK_SLIP,
                                                                  rig_values.mass_kg)
                         for step in steps])
@@ -516,3 +516,16 @@ def test_a_vibrometer_showing_only_noise_leaves_the_support_still() -> None:
     run = rig.simulate(weak, LAWS["dahl"], timestep_s=rig.recommended_timestep(weak),
                        duration_s=0.03)
     assert prepare_replay(synthetic.with_sensor_noise(dataset_of(run, "weak"))).vibrating
+
+
+def test_no_stick_phases_without_slips_or_on_a_vibrating_support() -> None:
+    """A noisy record of a slider that never slips (the drive end at 10 um/s loads the spring
+    to 10 % of breakaway), and a vibrating record, are not cut into segments."""
+    from vibrofriction import synthetic
+    from vibrofriction.identify.replay import stick_phase_steps
+    creeping = replace(STICK_SLIP_RIG, drive_velocity_m_per_s=1e-5)
+    run = rig.simulate(creeping, STICK_SLIP, timestep_s=2e-5, duration_s=0.1)
+    for seed in range(3):
+        noisy = synthetic.with_sensor_noise(dataset_of(run, "creeping"), seed=seed)
+        assert stick_phase_steps(prepare_replay(noisy)) == []
+    assert stick_phase_steps(prepare_replay(_record("lugre"))) == []

@@ -83,7 +83,7 @@ MIN_SAMPLES = 16  # a record shorter than this identifies nothing
 RIG_MODEL = "rig"  # the sidecar's "model" of a rig record (the default when absent)
 # Unit normal load when the record gives none: the fitted coefficient is then the level in N.
 UNIT_NORMAL_FORCE_N = 1.0
-_ELASTIC_FRACTION = 0.9  # initial deflection at most this fraction of the sliding deflection
+_ELASTIC_FRACTION = 0.9  # initial deflection at most this fraction of the static level's
 # A segment of a segmented replay (``Replayer(segment_steps=...)``) starts from the slider's
 # position and velocity of a least-squares parabola through this many samples either side.
 SEGMENT_SMOOTHING_SAMPLES = 5
@@ -216,6 +216,8 @@ class RigReplay(SampleGrid):
     # a vibrating sensor record: steps per sample on a grid that slides along the vibration
     # (``sliding_timestep``); None: exactly ``substeps``
     sliding_steps_per_sample: float | None = None
+    # the support's measured velocity held only its sensor's noise: replayed still
+    support_still: bool = False
 
     @property
     def sliding(self) -> bool:
@@ -283,13 +285,15 @@ class RigReplay(SampleGrid):
         window = slice(first, first + width)
         curvature, slope, position = np.polyfit(self.time_s[window] - t,
                                                 self.measured["position_m"][window], 2)
-        velocity = float(np.interp(t, self.time_s, self.measured["velocity_m_per_s"])) \
+        def line_at_t(values: np.ndarray) -> float:  # (a line through the window: less noise)
+            return float(np.polyval(np.polyfit(self.time_s[window] - t, values[window], 1), 0.0))
+
+        velocity = line_at_t(self.measured["velocity_m_per_s"]) \
             if "velocity_m_per_s" in self.measured else float(slope)
         if "friction_force_N" in self.measured:
-            force = float(np.interp(t, self.time_s, self.measured["friction_force_N"]))
+            force = line_at_t(self.measured["friction_force_N"])
         else:
-            force = float(np.interp(t, self.time_s, self.measured["drive_force_N"])) - \
-                mass_kg * 2.0 * float(curvature)
+            force = line_at_t(self.measured["drive_force_N"]) - mass_kg * 2.0 * float(curvature)
         return np.array([float(position), velocity,
                          deflection_at_rest(friction, force, self.rig.normal_force_N)])
 
@@ -396,7 +400,7 @@ class Replayer:
         self.segment_starts = [0, *segment_steps]
         ends = [*segment_steps, replay.nstep]
         self.segment_lengths = [b - a for a, b in zip(self.segment_starts, ends)]
-        if min(self.segment_lengths) < 1 or (segment_steps and min(segment_steps) < 2):
+        if min(self.segment_lengths) < 1 or (len(segment_steps) and min(segment_steps) < 2):
             raise ValueError(f"segment starts {list(segment_steps)} must increase from step 2 "
                              f"below the replay's {replay.nstep} steps")
 
@@ -440,16 +444,19 @@ class Replayer:
         groups: dict[int, list[int]] = {}
         for i, m in enumerate(models):
             groups.setdefault(m.nplugin and int(np.sum(m.plugin_statenum)), []).append(i)
-        chunks = [members[k:k + _CASES_PER_ROLLOUT] for members in groups.values()
-                  for k in range(0, len(members), _CASES_PER_ROLLOUT)]
         segments, steps = len(self.segment_starts), max(self.segment_lengths)
+        # (rollout keeps every step of every case: as many steps a call as a whole run's
+        # _CASES_PER_ROLLOUT cases, segments of a case running the longest one's steps)
+        per_call = max(1, _CASES_PER_ROLLOUT * replay.nstep // (segments * steps))
+        chunks = [members[k:k + per_call] for members in groups.values()
+                  for k in range(0, len(members), per_call)]
         if segments > 1:  # each segment's controls, the last held where a segment is shorter
             padded = np.concatenate([replay.control,
                                      np.repeat(replay.control[-1:], steps, axis=0)])
             control = np.stack([padded[k:k + steps] for k in self.segment_starts])
         else:
             control = replay.control[None]
-        for members in chunks:  # rollout keeps every step of every case: bound the memory
+        for members in chunks:
             group = [models[i] for i in members for _ in range(segments)]
             datas = [mujoco.MjData(group[0]) for _ in range(self.threads)]
             states = []
@@ -625,7 +632,8 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
         initial_support_position_m=float(support_position[0]),
         initial_support_velocity_m_per_s=float(support_velocity[0]),
         initial_drive_end_m=drive_end0, initial_friction_N=friction0, vibrating=vibrating,
-        timestep_from_record=from_record, sliding_steps_per_sample=sliding)
+        timestep_from_record=from_record, sliding_steps_per_sample=sliding,
+        support_still=still)
 
 
 # Stick phases (``stick_phase_steps``): between two slips (speed relative to the support above
@@ -635,6 +643,7 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
 # at rest: measured there, the deflection at equilibrium 8 % off and the velocity 62 um/s,
 # against 0.2 % and 4 um/s at the sample closest to rest.)
 SLIP_FRACTION = 0.5
+SLIP_ABOVE_NOISE = 20.0  # slips' 95th-percentile speed over the smoothed derivative's noise
 STICK_FRACTION = 0.05
 MIN_STICK_SAMPLES = 2 * SEGMENT_SMOOTHING_SAMPLES + 1
 MAX_SEGMENTS = 64
@@ -644,9 +653,11 @@ def stick_phase_steps(replay: RigReplay) -> list[int]:
     """The step at the sample closest to rest between each two slips (at most
     ``MAX_SEGMENTS`` - 1, evenly picked): where a segmented replay's segments start, since a
     sticking slider's state is best known there (at rest, its contact holding the measured
-    force). Empty without a measured position, or where the support moves (rms velocity above
-    ``STICK_FRACTION`` of the slider's 95th-percentile speed relative to it)."""
-    if "position_m" not in replay.measured or replay.n < 4 * MIN_STICK_SAMPLES:
+    force). Empty without a measured position, on a sliding step grid (a vibrating sensor
+    record), where the support moves (rms velocity above ``STICK_FRACTION`` of the slider's 95th-percentile speed relative
+    to it), and where no slip stands out of the noise (``SLIP_ABOVE_NOISE``)."""
+    if "position_m" not in replay.measured or replay.n < 4 * MIN_STICK_SAMPLES or \
+            replay.sliding:  # (samples between two steps: a sample would straddle segments)
         return []
     support = np.diff(replay.control[:, 0], prepend=replay.initial_support_position_m) / \
         replay.timestep_s
@@ -656,9 +667,16 @@ def stick_phase_steps(replay: RigReplay) -> list[int]:
         np.interp(replay.time_s, step_mid_s, support)
     acceleration = smoothed_derivative(velocity, replay.time_s, SEGMENT_SMOOTHING_SAMPLES)
     speed_95 = float(np.quantile(np.abs(velocity), 0.95))
-    # (a vibrating support: the slider is never at rest on it for long, and turning points of
-    # its relative motion while the vibration ramps up would pass for stick phases)
-    if not speed_95 > 0 or math.sqrt(float(np.mean(support ** 2))) > STICK_FRACTION * speed_95:
+    # (slips must stand out of the smoothed derivative's noise: sd sqrt(12 / (n (n^2 - 1)))
+    # position sd / dt for a parabola through n samples; noise peaks of a slider that never
+    # slips passed for slips otherwise. A moving support: turning points of the relative
+    # motion while a vibration ramps up would pass for stick phases.)
+    n = 2 * SEGMENT_SMOOTHING_SAMPLES + 1
+    sample_dt = float(replay.time_s[1] - replay.time_s[0])
+    derivative_noise = math.sqrt(12.0 / (n * (n * n - 1))) * white_noise_sd(
+        replay.measured["position_m"]) / sample_dt
+    if not speed_95 > SLIP_ABOVE_NOISE * derivative_noise or \
+            math.sqrt(float(np.mean(support ** 2))) > STICK_FRACTION * speed_95:
         return []
     from_rest = np.abs(velocity) / speed_95 + np.abs(acceleration) / max(
         float(np.quantile(np.abs(acceleration), 0.95)), 1e-300)
@@ -843,7 +861,9 @@ def noise_only_vibration(velocity: np.ndarray, dt: float, frequency_Hz: float) -
     harmonics = sum(1 for h in range(1, VIBRATION_HARMONICS + 1)
                     if h * frequency_Hz <= 0.8 * 0.5 / dt)
     share = 2 * ENVELOPE_BANDWIDTH * frequency_Hz * harmonics / (0.5 / dt)
-    noise = broadband_noise_sd(velocity, band)
+    # (from first differences, as ``vibration_band``'s: a slow drift the band drops would
+    # count as noise in the spread of what it removes, and hide a real vibration)
+    noise = math.sqrt(0.5 * float(np.var(np.diff(np.asarray(velocity) - band))))
     return math.sqrt(float(np.mean(band ** 2))) < VIBRATION_ABOVE_NOISE * noise * \
         math.sqrt(share)
 
@@ -857,10 +877,14 @@ def noise_sd(values: np.ndarray) -> float:
     that (a noise-free record) does not outweigh the others, whose replay through measured,
     interpolated inputs is no more faithful either.
     """
-    d3 = np.diff(np.asarray(values, dtype=float), 3)
-    sd = 1.4826 * float(np.median(np.abs(d3 - np.median(d3)))) / math.sqrt(20.0)
     span = float(np.ptp(values)) or float(np.max(np.abs(values))) or 1.0
-    return max(sd, NOISE_FLOOR_OF_RANGE * span)
+    return max(white_noise_sd(values), NOISE_FLOOR_OF_RANGE * span)
+
+
+def white_noise_sd(values: np.ndarray) -> float:
+    """``noise_sd`` without its floor (0 for a noise-free smooth signal)."""
+    d3 = np.diff(np.asarray(values, dtype=float), 3)
+    return 1.4826 * float(np.median(np.abs(d3 - np.median(d3)))) / math.sqrt(20.0)
 
 
 __all__ = ["RigReplay", "Replayer", "prepare_replay", "noise_sd", "OUTPUT_CHANNELS",

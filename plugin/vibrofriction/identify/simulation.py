@@ -232,6 +232,7 @@ class SimulationProblem:
         self.noise = dict(train.noise)  # channel -> sd the residual is divided by
         self.weights = {c: 1.0 / train.noise[c] for c in train.channels}
         self.floor = 0.0
+        self.other_simulations = 0  # run on replays of its own (segmented, shooting)
         # initial-state values fitted with the parameters (the training record's only)
         self.state: tuple[str, ...] = tuple(getattr(train, "estimated_state", ()))
         # named values of the scene fitted with the parameters (a machine's joint damping)
@@ -269,7 +270,7 @@ class SimulationProblem:
 
     @property
     def simulations(self) -> int:
-        return sum(r.simulations for r in self._runners)
+        return sum(r.simulations for r in self._runners) + self.other_simulations
 
     # -------------------------------------------------------------------- model evaluation
 
@@ -492,7 +493,7 @@ def identify_by_simulation(train: Dataset, validation: Sequence[Dataset] = (), *
                 # The baseline went where the timestep does not resolve it: halve it and
                 # fit again from the baseline's local optima.
                 problem = problem_at(2 * problem.train.substeps)
-                scan = (unresolved.scales, unresolved.starts)
+                scan = (unresolved.scales, unresolved.starts, unresolved.origins)
     finally:
         for made in problems:
             made.close()
@@ -513,9 +514,9 @@ def _model_name(replay) -> str:
 class _Unresolved(Exception):
     """The baseline fit is not resolved by the timestep (raised to refine it)."""
 
-    def __init__(self, scales: Scales, starts: list[dict[str, float]]):
+    def __init__(self, scales: Scales, starts: list[dict[str, float]], origins: list[str]):
         super().__init__("timestep too coarse for the baseline")
-        self.scales, self.starts = scales, starts
+        self.scales, self.starts, self.origins = scales, starts, origins
 
 
 def _converged_timestep(problem: SimulationProblem, train: Dataset, law: str,
@@ -566,10 +567,15 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
         f"MuJoCo rig at dt {replay.timestep_s:.4g} s ({replay.steps_per_sample:.4g} step(s) a "
         f"sample{', sliding along the vibration' if replay.sliding else ''}), "
         f"law {law}" + (", mass identified" if fit_mass else "") +
+        (", the support still (its measured velocity holds only its sensor's noise)"
+         if getattr(replay, "support_still", False) else "") +
         (f", {len(problem.validation)} held-out record(s)" if problem.validation else ""))
     skipped = _not_applicable(replay, law, declared)
     declared = tuple(e for e in EFFECTS if e in declared and e not in skipped)
-    scales, starts = scan or _start(problem, law, fit_mass, declared)
+    # (a scan carried over from a coarser timestep: the local optima found there, each with
+    # where its start came from; a stick-slip record's segmented stage is not run again)
+    scales, starts, *carried = scan or _start(problem, law, fit_mass, declared)
+    carried_origins = carried[0] if carried and len(carried[0]) == len(starts) else None
     model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law),
                         problem.state, problem.scene)
     say(f"baseline: fitting {model.k} parameters ({', '.join(model.names)}) from the "
@@ -609,20 +615,21 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
         fit = problem.fit(model, start, BASELINE_EVALUATIONS, race)
         if fit is not None:
             fits.append(fit)
-            origin[id(fit)] = "the scan" if index < scanned else "the still stage"
+            origin[id(fit)] = carried_origins[index] if carried_origins else \
+                "the scan" if index < scanned else "the still stage"
     if len(fits) < len(starts):
         say(f"baseline: {len(starts) - len(fits)} start(s) abandoned, still above "
             f"{RACE_RATIO:g} times the best fit's RSS after {RACE_EVALUATIONS} evaluations")
     stick_phases, segmented = _segmented_starts(problem, model, say) \
-        if isinstance(replay, RigReplay) else (0, [])
-    for index, start in enumerate(segmented):
-        # (the multiple-shooting start, first, is fitted in full; the others race it)
+        if isinstance(replay, RigReplay) and not carried_origins else (0, [])
+    for index, (label, start) in enumerate(segmented):
+        # (the first, multiple shooting's, is fitted in full; the others race it)
         race = (RACE_EVALUATIONS, RACE_RATIO * min(f.rss for f in fits)) if index else None
         fit = problem.fit(model, start, BASELINE_EVALUATIONS, race)
         if fit is not None:
             fits.append(fit)
-            origin[id(fit)] = "multiple shooting" if index == 0 else "a segmented replay"
-        say(f"baseline: from {'multiple shooting' if index == 0 else 'a segmented fit'}, " +
+            origin[id(fit)] = label
+        say(f"baseline: from {label}, " +
             (f"{problem.primary} relerr {fit.train.relerr_pct:.3g} % over the whole record "
              f"({fit.nfev} evaluations)" if fit is not None else
              f"abandoned after {RACE_EVALUATIONS} evaluations"))
@@ -660,7 +667,8 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
     if refine and floor_rms > TIMESTEP_TOLERANCE and 2 * replay.substeps <= MAX_SUBSTEPS:
         say(f"baseline: halving the timestep changes its prediction by {floor_rms:.3g} "
             f"(weighted rms); halving it and fitting again")
-        raise _Unresolved(scales, [model.internal_values(f.q) for f in local])
+        raise _Unresolved(scales, [model.internal_values(f.q) for f in local],
+                          [origin.get(id(f), "the scan") for f in local])
     say(f"baseline: {problem.primary} relerr {baseline.train.relerr_pct:.3g} %; simulator "
         f"error floor {math.sqrt(problem.floor / len(baseline.residual)):.3g} (weighted rms)")
     current = baseline
@@ -774,7 +782,8 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
                   "timestep_s": replay.timestep_s, "min_improvement": min_improvement,
                   "bic_threshold": bic_threshold, "fit_mass": fit_mass,
                   "noise_sd": dict(problem.noise), "stick_phases": stick_phases,
-                  "baseline_start": baseline_start},
+                  "baseline_start": baseline_start,
+                  "support_still": bool(getattr(replay, "support_still", False))},
         simulations=problem.simulations, seconds=time.monotonic() - started,
         standard_errors=errors, closed_loop=closed_loop)
 
@@ -909,9 +918,10 @@ def _scan_point(problem: SimulationProblem, fit_mass: bool, level_N: float,
 
 
 def _segmented_starts(problem: SimulationProblem, model: Model, say: ProgressFn
-                      ) -> tuple[int, list[dict[str, float]]]:
-    """(stick phases, starts) for the whole-record fit of a stick-slip record, from its
-    segmented replay: the multiple-shooting fit's first, then the segmented fits'.
+                      ) -> tuple[int, list[tuple[str, dict[str, float]]]]:
+    """(stick phases, [(where it came from, start)]) for the whole-record fit of a stick-slip
+    record, from its segmented replay: the multiple-shooting fit's first, then the segmented
+    fits'.
 
     In stick-slip a slightly wrong static level shifts every later slip, and a fit over the
     whole record (single shooting) stays near its start (measured: a noise-free 0.2 s
@@ -928,8 +938,12 @@ def _segmented_starts(problem: SimulationProblem, model: Model, say: ProgressFn
     decides, so the model fitted is always the one users simulate. (Not with a sensor lag:
     a lagged sensor's state at a segment's start is not in the record.)"""
     replay = problem.train
-    steps = stick_phase_steps(replay) if "sensor_lag" not in model.effects else []
+    steps = stick_phase_steps(replay)
     if len(steps) < MIN_SLIPS:
+        return len(steps), []
+    if "sensor_lag" in model.effects:
+        say(f"baseline: {len(steps)} stick phases after a slip, not replayed as segments: a "
+            "lagged sensor's state at a segment's start is not in the record")
         return len(steps), []
     segmented = SimulationProblem(replay, [], problem.law, problem.runner.threads,
                                   segment_steps=steps)
@@ -972,18 +986,24 @@ def _segmented_starts(problem: SimulationProblem, model: Model, say: ProgressFn
             say(f"baseline: segmented fit from scan point {len(starts)}: {problem.primary} "
                 f"relerr {fit.train.relerr_pct:.3g} % ({fit.nfev} evaluations)")
     finally:
+        problem.other_simulations += segmented.simulations
         segmented.close()
     # The segments' start states fitted too, from the best segmented fit: its bias removed
     shooting = MultipleShooting(problem, fixed_state, steps)
     try:
         best = starts[int(np.argmin(fitted))]
         started = time.monotonic()
-        starts.insert(0, {**best, **shooting.fit(best)})
+        shot = [("multiple shooting", {**best, **shooting.fit(best)})]
         say(f"baseline: multiple shooting from the best, start states fitted "
             f"({time.monotonic() - started:.1f} s)")
+    except ValueError as error:  # (least_squares on a non-finite residual)
+        say(f"baseline: multiple shooting failed ({error}); the segmented fits start the "
+            "whole-record fits alone")
+        shot = []
     finally:
+        problem.other_simulations += shooting.runner.simulations
         shooting.close()
-    return len(steps), starts
+    return len(steps), shot + [("a segmented replay", start) for start in starts]
 
 
 # Two local optima whose predictions differ by less than this (rms, in noise sd) are one: starts

@@ -153,7 +153,7 @@ def _baseline_start_line(result: SimIdentification) -> str:
     segments."""
     phases = result.settings.get("stick_phases", 0)
     line = f"- baseline: started from {result.settings.get('baseline_start')}"
-    if phases >= MIN_SLIPS:
+    if phases >= MIN_SLIPS and "sensor_lag" not in result.declared:
         line += (f". The record shows {phases} stick phases after a slip, so it was also "
                  f"replayed as {phases + 1} segments started there (a whole-record fit of "
                  "stick-slip stays near its start): segmented fits, then multiple shooting "
