@@ -7,6 +7,7 @@ import threading
 import mujoco
 
 from ._mujoco_plugins import library_path, version_mismatch
+from .vocabulary import LAW_STRUCT_FIELDS
 
 _API_VERSION = 1
 _lock = threading.Lock()
@@ -33,11 +34,8 @@ def check_mujoco_version(runtime: str | None = None, compiled: str | None = None
 
 class _LawParameters(ctypes.Structure):
     # Same layout as vf_law_parameters in plugin/cpp/c_api.h.
-    _fields_ = [("law", ctypes.c_int)] + [(name, ctypes.c_double) for name in (
-        "friction_coefficient", "normal_force", "contact_stiffness", "alpha", "breakaway_ratio",
-        "bristle_damping", "viscous", "static_ratio", "stribeck_velocity", "asymmetry", "ripple",
-        "ripple_wavelength", "ripple_phase", "normal_modulation", "normal_modulation_frequency",
-        "normal_modulation_phase", "force_offset")]
+    # (c_api.h's order; tests/test_vocabulary.py checks it)
+    _fields_ = [("law", ctypes.c_int)] + [(name, ctypes.c_double) for name in LAW_STRUCT_FIELDS]
 
 
 def load() -> ctypes.CDLL:

@@ -14,6 +14,7 @@ import numpy as np
 
 from ._native import _LawParameters, load
 from .params import LAWS, PAPER_NORMAL_FORCE_N, FrictionParameters, ParameterError
+from .vocabulary import FRICTION_TERMS
 
 
 @dataclass(frozen=True)
@@ -25,24 +26,9 @@ class LawRun:
 def _c_parameters(friction: FrictionParameters, normal_force_N: float) -> _LawParameters:
     return _LawParameters(
         law=LAWS.index(friction.law),
-        friction_coefficient=friction.friction_coefficient,
         normal_force=normal_force_N,
-        contact_stiffness=friction.contact_stiffness_N_per_m,
-        alpha=friction.alpha,
-        breakaway_ratio=friction.breakaway_ratio,
-        bristle_damping=friction.bristle_damping_N_s_per_m,
-        viscous=friction.viscous_N_s_per_m,
-        static_ratio=friction.static_ratio,
-        stribeck_velocity=friction.stribeck_velocity_m_per_s,
-        asymmetry=friction.asymmetry,
-        ripple=friction.position_ripple,
-        ripple_wavelength=friction.position_ripple_wavelength_m,
-        ripple_phase=friction.position_ripple_phase_rad,
-        normal_modulation=friction.normal_force_modulation,
-        normal_modulation_frequency=friction.normal_force_modulation_frequency_Hz,
-        normal_modulation_phase=friction.normal_force_modulation_phase_rad,
-        force_offset=friction.force_offset_N,
-    )
+        **{term.law_field: getattr(friction, term.name) for term in FRICTION_TERMS
+           if term.law_field})
 
 
 def _as_c_array(values, n: int, name: str) -> np.ndarray:

@@ -26,12 +26,12 @@ from dataclasses import dataclass, fields, replace
 from typing import Any, Mapping
 
 from .errors import InputError
+from .vocabulary import DEFAULTS, LIMITS as _FRICTION_LIMITS, PAPER_CONTACT_STIFFNESS_N_PER_M
 
 LAWS = ("coulomb", "dahl", "dupont", "lugre")
 
 # Paper values (Gutowski & Leus 2012, section 4): p = 0.046 N/mm^2 on S = 1200 mm^2.
 PAPER_NORMAL_FORCE_N = 0.046 * 1200.0
-PAPER_CONTACT_STIFFNESS_N_PER_M = 80.0e6
 # A vibration switched on during a run (``vibration_from_s``) builds up over this many periods
 # (amplitude (1 - cos(pi tau / T)) / 2, as a shaker's): neither velocity nor acceleration jumps.
 VIBRATION_RAMP_PERIODS = 20
@@ -49,19 +49,7 @@ LIMITS: dict[str, tuple[float, float]] = {  # name -> (smallest nonzero magnitud
     "vibration_velocity_amplitude_m_per_s": (0.0, 1e3),
     "vibration_from_s": (0.0, 1e9),
     "normal_force_N": (0.0, 1e9),
-    "friction_coefficient": (0.0, 1e9),
-    "contact_stiffness_N_per_m": (0.0, 1e18),
-    "alpha": (0.0, 1e3),
-    "bristle_damping_N_s_per_m": (0.0, 1e15),
-    "viscous_N_s_per_m": (0.0, 1e15),
-    "static_ratio": (0.0, 1e3),
-    "stribeck_velocity_m_per_s": (1e-15, 1e3),
-    "position_ripple_wavelength_m": (1e-15, 1e6),
-    "position_ripple_phase_rad": (0.0, 1e6),
-    "normal_force_modulation_frequency_Hz": (0.0, 1e9),
-    "normal_force_modulation_phase_rad": (0.0, 1e6),
-    "force_offset_N": (0.0, 1e9),
-    "sensor_lag_s": (0.0, 1e3),
+    **_FRICTION_LIMITS,  # (vocabulary.FRICTION_TERMS)
 }
 
 
@@ -132,31 +120,33 @@ class RigParameters:
 class FrictionParameters:
     """A friction law and its parameters; the effect fields are switched off at 0."""
 
+    # (defaults: vocabulary.FRICTION_TERMS, the one table of names, keys, units and defaults)
     law: str = "dahl"
-    friction_coefficient: float = 0.2
-    contact_stiffness_N_per_m: float = PAPER_CONTACT_STIFFNESS_N_PER_M
-    alpha: float = 1.0
-    breakaway_ratio: float = 0.7
-    bristle_damping_N_s_per_m: float = 0.0
-    viscous_N_s_per_m: float = 0.0
-    static_ratio: float = 1.0
-    stribeck_velocity_m_per_s: float = 1.0e-3
+    friction_coefficient: float = DEFAULTS["friction_coefficient"]
+    contact_stiffness_N_per_m: float = DEFAULTS["contact_stiffness_N_per_m"]
+    alpha: float = DEFAULTS["alpha"]
+    breakaway_ratio: float = DEFAULTS["breakaway_ratio"]
+    bristle_damping_N_s_per_m: float = DEFAULTS["bristle_damping_N_s_per_m"]
+    viscous_N_s_per_m: float = DEFAULTS["viscous_N_s_per_m"]
+    static_ratio: float = DEFAULTS["static_ratio"]
+    stribeck_velocity_m_per_s: float = DEFAULTS["stribeck_velocity_m_per_s"]
     # Effects (identification vocabulary); each 0 = off.
-    asymmetry: float = 0.0  # level (1 + a) for v > 0, (1 - a) for v < 0
-    position_ripple: float = 0.0  # relative amplitude of friction periodic in position
-    position_ripple_wavelength_m: float = 1.0e-3
-    position_ripple_phase_rad: float = 0.0
+    asymmetry: float = DEFAULTS["asymmetry"]  # level (1 + a) for v > 0, (1 - a) for v < 0
+    position_ripple: float = DEFAULTS["position_ripple"]  # relative amplitude, periodic in x
+    position_ripple_wavelength_m: float = DEFAULTS["position_ripple_wavelength_m"]
+    position_ripple_phase_rad: float = DEFAULTS["position_ripple_phase_rad"]
     # F_N (1 + m sin(2 pi f_m t + phase)): m the relative amplitude, f_m the frequency (Hz).
-    normal_force_modulation: float = 0.0
+    normal_force_modulation: float = DEFAULTS["normal_force_modulation"]
     # f_m = 0 means "the vibration frequency" wherever a rig is given (rig.build_spec and
     # rig.friction_config, planar.build_rig_spec, reference.simulate_reference): they write
     # RigParameters.vibration_frequency_Hz into the MJCF key modulation_frequency, in which 0
     # means 0 Hz (a constant factor 1 + m sin(phase)). Without a rig (laws.run_law,
     # planar.planar_config, planar.run_planar_law) 0 is passed on, so it is 0 Hz there.
-    normal_force_modulation_frequency_Hz: float = 0.0
-    normal_force_modulation_phase_rad: float = 0.0
-    force_offset_N: float = 0.0
-    sensor_lag_s: float = 0.0  # first-order lag of the reported friction force
+    normal_force_modulation_frequency_Hz: float = \
+        DEFAULTS["normal_force_modulation_frequency_Hz"]
+    normal_force_modulation_phase_rad: float = DEFAULTS["normal_force_modulation_phase_rad"]
+    force_offset_N: float = DEFAULTS["force_offset_N"]
+    sensor_lag_s: float = DEFAULTS["sensor_lag_s"]  # first-order lag of the reported force
 
     def validate(self) -> "FrictionParameters":
         if self.law not in LAWS:

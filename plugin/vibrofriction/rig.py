@@ -19,6 +19,7 @@ from ._native import load
 from .params import (VIBRATION_RAMP_PERIODS, FrictionParameters, ParameterError, RigParameters,
                      _plain)
 from .summary import RunSummary, summarize
+from .vocabulary import MJCF_KEYS as VOCABULARY_MJCF_KEYS
 
 if TYPE_CHECKING:
     from .steady import Convergence
@@ -27,26 +28,8 @@ MJCF_DIR = Path(__file__).resolve().parent / "mjcf_models"
 RIG_DIR = MJCF_DIR / "rig"
 DEFAULT_TIMESTEP_S = 1e-5
 
-# FrictionParameters field -> MJCF config key of vibrofriction.friction (docs/simulation.md table).
-MJCF_KEYS = {
-    "friction_coefficient": "mu",
-    "contact_stiffness_N_per_m": "stiffness",
-    "alpha": "alpha",
-    "breakaway_ratio": "breakaway",
-    "bristle_damping_N_s_per_m": "sigma1",
-    "viscous_N_s_per_m": "viscous",
-    "static_ratio": "static_ratio",
-    "stribeck_velocity_m_per_s": "stribeck_velocity",
-    "asymmetry": "asymmetry",
-    "position_ripple": "ripple",
-    "position_ripple_wavelength_m": "ripple_wavelength",
-    "position_ripple_phase_rad": "ripple_phase",
-    "normal_force_modulation": "normal_modulation",
-    "normal_force_modulation_frequency_Hz": "modulation_frequency",
-    "normal_force_modulation_phase_rad": "modulation_phase",
-    "force_offset_N": "force_offset",
-    "sensor_lag_s": "sensor_lag",
-}
+# FrictionParameters field -> MJCF config key of vibrofriction.friction (vocabulary.FRICTION_TERMS)
+MJCF_KEYS = dict(VOCABULARY_MJCF_KEYS)
 
 
 def scene_path(law: str) -> Path:

@@ -1,0 +1,72 @@
+"""The friction element's parameter vocabulary, one row per parameter: the one table.
+
+Each row gives the Python name (a ``FrictionParameters`` field, the CLI's ``--set`` name, the
+JSON key), the friction element's MJCF config key, the field of the C++ ``LawParameters``
+(also the C API's ``vf_law_parameters`` and the ctypes struct of ``_native``), the unit, the
+default, the largest magnitude accepted (``params.LIMITS``) and the laws it acts in.
+
+``rig.MJCF_KEYS``, ``params.LIMITS`` (its friction part), ``FrictionParameters``' defaults and
+``laws``' struct filling come from this table; ``tests/test_vocabulary.py`` checks the C++
+side (``friction_law.h``'s defaults, the config readers' keys and defaults, ``c_api.h``'s
+struct), the ctypes struct and the parameter table of ``docs/simulation.md`` against it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+ALL_LAWS = ("coulomb", "dahl", "dupont", "lugre")
+PAPER_CONTACT_STIFFNESS_N_PER_M = 80.0e6
+
+
+@dataclass(frozen=True)
+class Term:
+    name: str  # Python, CLI and JSON name, SI unit in it
+    mjcf_key: str  # config key of vibrofriction.friction
+    law_field: str | None  # LawParameters / vf_law_parameters field (None: not a law value)
+    unit: str
+    default: float
+    # (smallest nonzero magnitude, largest), SI; None: a fraction whose range
+    # ``FrictionParameters.validate`` checks itself
+    limits: tuple[float, float] | None
+    laws: tuple[str, ...]
+
+
+FRICTION_TERMS: tuple[Term, ...] = (
+    Term("friction_coefficient", "mu", "friction_coefficient", "-", 0.2, (0.0, 1e9), ALL_LAWS),
+    Term("contact_stiffness_N_per_m", "stiffness", "contact_stiffness", "N/m",
+         PAPER_CONTACT_STIFFNESS_N_PER_M, (0.0, 1e18), ("dahl", "dupont", "lugre")),
+    Term("alpha", "alpha", "alpha", "-", 1.0, (0.0, 1e3), ("dahl",)),
+    Term("breakaway_ratio", "breakaway", "breakaway_ratio", "-", 0.7, None, ("dupont",)),
+    Term("bristle_damping_N_s_per_m", "sigma1", "bristle_damping", "N s/m", 0.0, (0.0, 1e15),
+         ("dupont", "lugre")),
+    Term("viscous_N_s_per_m", "viscous", "viscous", "N s/m", 0.0, (0.0, 1e15), ALL_LAWS),
+    Term("static_ratio", "static_ratio", "static_ratio", "-", 1.0, (0.0, 1e3), ALL_LAWS),
+    Term("stribeck_velocity_m_per_s", "stribeck_velocity", "stribeck_velocity", "m/s", 1.0e-3,
+         (1e-15, 1e3), ALL_LAWS),
+    Term("asymmetry", "asymmetry", "asymmetry", "-", 0.0, None, ALL_LAWS),
+    Term("position_ripple", "ripple", "ripple", "-", 0.0, None, ALL_LAWS),
+    Term("position_ripple_wavelength_m", "ripple_wavelength", "ripple_wavelength", "m", 1.0e-3,
+         (1e-15, 1e6), ALL_LAWS),
+    Term("position_ripple_phase_rad", "ripple_phase", "ripple_phase", "rad", 0.0, (0.0, 1e6),
+         ALL_LAWS),
+    Term("normal_force_modulation", "normal_modulation", "normal_modulation", "-", 0.0, None,
+         ALL_LAWS),
+    Term("normal_force_modulation_frequency_Hz", "modulation_frequency",
+         "normal_modulation_frequency", "Hz", 0.0, (0.0, 1e9), ALL_LAWS),
+    Term("normal_force_modulation_phase_rad", "modulation_phase", "normal_modulation_phase",
+         "rad", 0.0, (0.0, 1e6), ALL_LAWS),
+    Term("force_offset_N", "force_offset", "force_offset", "N", 0.0, (0.0, 1e9), ALL_LAWS),
+    # (the element's reporting, not the law: kept by the element, not in LawParameters)
+    Term("sensor_lag_s", "sensor_lag", None, "s", 0.0, (0.0, 1e3), ALL_LAWS),
+)
+TERMS_BY_NAME = {term.name: term for term in FRICTION_TERMS}
+LIMITS = {term.name: term.limits for term in FRICTION_TERMS if term.limits is not None}
+DEFAULTS = {term.name: term.default for term in FRICTION_TERMS}
+MJCF_KEYS = {term.name: term.mjcf_key for term in FRICTION_TERMS}
+# The C API struct's fields after ``law``: the law values, with the normal load (a rig's or a
+# sensor's, not a FrictionParameters value) second.
+LAW_STRUCT_FIELDS = ("friction_coefficient", "normal_force", *(
+    term.law_field for term in FRICTION_TERMS[1:] if term.law_field))
+
+__all__ = ["Term", "FRICTION_TERMS", "TERMS_BY_NAME", "DEFAULTS", "MJCF_KEYS", "LIMITS",
+           "LAW_STRUCT_FIELDS", "ALL_LAWS", "PAPER_CONTACT_STIFFNESS_N_PER_M"]
