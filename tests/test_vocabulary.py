@@ -2,6 +2,7 @@
 ``vibrofriction.vocabulary.FRICTION_TERMS`` -- names, MJCF keys, C++ fields and defaults."""
 from __future__ import annotations
 
+import ctypes
 import dataclasses
 import re
 from pathlib import Path
@@ -10,18 +11,17 @@ import pytest
 
 from vibrofriction import rig
 from vibrofriction._native import _LawParameters
-from vibrofriction.params import LIMITS, FrictionParameters
-from vibrofriction.vocabulary import FRICTION_TERMS, LAW_STRUCT_FIELDS
+from vibrofriction.params import LAWS, LIMITS, FrictionParameters
+from vibrofriction.vocabulary import ALL_LAWS, FRICTION_TERMS, LAW_STRUCT_FIELDS
 
 ROOT = Path(__file__).resolve().parents[1]
 CPP = ROOT / "plugin" / "cpp"
 
 
 def _cpp(name: str) -> str:
-    path = CPP / name
-    if not path.is_file():
-        pytest.skip(f"C++ sources not found at {CPP} (an installed package without them)")
-    return path.read_text()
+    if not (ROOT / "pyproject.toml").is_file():
+        pytest.skip(f"not a source checkout ({ROOT}): the C++ sources are not here")
+    return (CPP / name).read_text()  # (in a checkout a missing file is a failure)
 
 
 def _number(text: str) -> float:
@@ -37,12 +37,22 @@ def test_friction_parameters_are_the_table() -> None:
 
 
 def test_the_cpp_law_parameters_have_the_tables_defaults() -> None:
-    struct = re.search(r"struct LawParameters \{(.*?)\};", _cpp("friction_law.h"), re.S).group(1)
-    defaults = {name: _number(value) for name, value in
-                re.findall(r"double (\w+) = ([-+0-9.eE]+);", struct)}
-    for term in FRICTION_TERMS:
-        if term.law_field:
-            assert defaults[term.law_field] == pytest.approx(term.default, rel=1e-12), term.name
+    header = _cpp("friction_law.h")
+    struct = re.search(r"struct LawParameters \{(.*?)\};", header, re.S).group(1)
+    struct = re.sub(r"//[^\n]*", "", struct)
+    declared = re.findall(r"\b(\w+) (\w+) = ([^;]+);", struct)
+    assert declared[0][:2] == ("Law", "law")
+    defaults = {name: _number(value) for kind, name, value in declared[1:]
+                if kind == "double"}
+    assert len(defaults) == len(declared) - 1  # every field but the law is a double
+    fields = {term.law_field: term for term in FRICTION_TERMS if term.law_field}
+    assert set(defaults) == set(fields) | {"normal_force"}
+    for field, term in fields.items():
+        assert defaults[field] == pytest.approx(term.default, rel=1e-12), term.name
+    enum = re.search(r"enum class Law : int \{(.*?)\};", header).group(1)
+    values = {name.lower(): int(value) for name, value in re.findall(r"k(\w+) = (\d+)", enum)}
+    assert values == {law: index for index, law in enumerate(ALL_LAWS)}
+    assert LAWS == ALL_LAWS
 
 
 def test_the_config_readers_read_each_key_into_its_field_with_the_tables_default() -> None:
@@ -68,10 +78,14 @@ def test_the_c_api_struct_and_the_ctypes_layout_are_the_tables() -> None:
     struct = re.search(r"typedef struct vf_law_parameters \{(.*?)\}", _cpp("c_api.h"),
                        re.S).group(1)
     struct = re.sub(r"//[^\n]*", "", struct)
-    doubles = re.search(r"double (.*?);", struct, re.S).group(1)
-    fields = [name.strip() for name in doubles.split(",")]
-    assert tuple(fields) == LAW_STRUCT_FIELDS
-    assert [name for name, _ in _LawParameters._fields_] == ["law", *LAW_STRUCT_FIELDS]
+    declared = [(kind, name.strip()) for kind, names in
+                re.findall(r"\b(int|double)\s+([^;]+);", struct) for name in names.split(",")]
+    assert len(declared) == struct.count(",") + struct.count(";")  # nothing else declared
+    assert declared == [("int", "law"), *(("double", f) for f in LAW_STRUCT_FIELDS)]
+    kinds = {ctypes.c_int: "int", ctypes.c_double: "double"}
+    assert [(kinds[t], n) for n, t in _LawParameters._fields_] == declared
+    assert set(LAW_STRUCT_FIELDS) == {t.law_field for t in FRICTION_TERMS if t.law_field} | \
+        {"normal_force"}
 
 
 def test_the_docs_parameter_table_names_each_key_and_default() -> None:

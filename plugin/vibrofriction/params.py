@@ -1,4 +1,5 @@
-"""Parameter dataclasses: the one vocabulary of the project (see docs/simulation.md, "Parameters").
+"""Parameter dataclasses of the rig and the friction element (the friction part's names,
+defaults and limits: ``vocabulary.FRICTION_TERMS``, the one table; docs/simulation.md).
 
 Every field is in SI units with the unit in its name. The same names are used by the
 Python API, the CLI's ``--set NAME=VALUE``, JSON outputs and dataset sidecars.
@@ -26,9 +27,10 @@ from dataclasses import dataclass, fields, replace
 from typing import Any, Mapping
 
 from .errors import InputError
-from .vocabulary import DEFAULTS, LIMITS as _FRICTION_LIMITS, PAPER_CONTACT_STIFFNESS_N_PER_M
+from .vocabulary import ALL_LAWS, DEFAULTS, PAPER_CONTACT_STIFFNESS_N_PER_M
+from .vocabulary import LIMITS as _FRICTION_LIMITS
 
-LAWS = ("coulomb", "dahl", "dupont", "lugre")
+LAWS = ALL_LAWS  # (the C++ Law enum's order: LAWS.index(law) is its value)
 
 # Paper values (Gutowski & Leus 2012, section 4): p = 0.046 N/mm^2 on S = 1200 mm^2.
 PAPER_NORMAL_FORCE_N = 0.046 * 1200.0

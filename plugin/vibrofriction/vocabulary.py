@@ -3,12 +3,15 @@
 Each row gives the Python name (a ``FrictionParameters`` field, the CLI's ``--set`` name, the
 JSON key), the friction element's MJCF config key, the field of the C++ ``LawParameters``
 (also the C API's ``vf_law_parameters`` and the ctypes struct of ``_native``), the unit, the
-default, the largest magnitude accepted (``params.LIMITS``) and the laws it acts in.
+default, the magnitudes accepted (``params.LIMITS``: the smallest nonzero, the largest) and the
+laws it acts in. ``ALL_LAWS`` is in the order of the C++ ``Law`` enum (its values).
 
 ``rig.MJCF_KEYS``, ``params.LIMITS`` (its friction part), ``FrictionParameters``' defaults and
 ``laws``' struct filling come from this table; ``tests/test_vocabulary.py`` checks the C++
-side (``friction_law.h``'s defaults, the config readers' keys and defaults, ``c_api.h``'s
-struct), the ctypes struct and the parameter table of ``docs/simulation.md`` against it.
+side (``friction_law.h``'s fields, defaults and law enum, the config readers' keys, fields and
+defaults, ``c_api.h``'s struct), the ctypes struct and the keys and defaults of
+``docs/simulation.md``'s parameter table against it. (Units and laws are not checked yet;
+``plugin_util.cc``'s ranges are checked at run time by ``tests/test_plugin_config.py``.)
 """
 from __future__ import annotations
 
@@ -38,7 +41,7 @@ FRICTION_TERMS: tuple[Term, ...] = (
     Term("alpha", "alpha", "alpha", "-", 1.0, (0.0, 1e3), ("dahl",)),
     Term("breakaway_ratio", "breakaway", "breakaway_ratio", "-", 0.7, None, ("dupont",)),
     Term("bristle_damping_N_s_per_m", "sigma1", "bristle_damping", "N s/m", 0.0, (0.0, 1e15),
-         ("dupont", "lugre")),
+         ("dahl", "dupont", "lugre")),
     Term("viscous_N_s_per_m", "viscous", "viscous", "N s/m", 0.0, (0.0, 1e15), ALL_LAWS),
     Term("static_ratio", "static_ratio", "static_ratio", "-", 1.0, (0.0, 1e3), ALL_LAWS),
     Term("stribeck_velocity_m_per_s", "stribeck_velocity", "stribeck_velocity", "m/s", 1.0e-3,
@@ -63,10 +66,14 @@ TERMS_BY_NAME = {term.name: term for term in FRICTION_TERMS}
 LIMITS = {term.name: term.limits for term in FRICTION_TERMS if term.limits is not None}
 DEFAULTS = {term.name: term.default for term in FRICTION_TERMS}
 MJCF_KEYS = {term.name: term.mjcf_key for term in FRICTION_TERMS}
-# The C API struct's fields after ``law``: the law values, with the normal load (a rig's or a
-# sensor's, not a FrictionParameters value) second.
-LAW_STRUCT_FIELDS = ("friction_coefficient", "normal_force", *(
-    term.law_field for term in FRICTION_TERMS[1:] if term.law_field))
+# The C API struct's doubles after ``int law``, in c_api.h's order (the ABI: written out, so
+# that reordering the table cannot move them): the law values and the normal load (a rig's or
+# a sensor's, not a FrictionParameters value). tests/test_vocabulary.py checks both.
+LAW_STRUCT_FIELDS = (
+    "friction_coefficient", "normal_force", "contact_stiffness", "alpha", "breakaway_ratio",
+    "bristle_damping", "viscous", "static_ratio", "stribeck_velocity", "asymmetry", "ripple",
+    "ripple_wavelength", "ripple_phase", "normal_modulation", "normal_modulation_frequency",
+    "normal_modulation_phase", "force_offset")
 
 __all__ = ["Term", "FRICTION_TERMS", "TERMS_BY_NAME", "DEFAULTS", "MJCF_KEYS", "LIMITS",
            "LAW_STRUCT_FIELDS", "ALL_LAWS", "PAPER_CONTACT_STIFFNESS_N_PER_M"]
