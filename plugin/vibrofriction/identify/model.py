@@ -322,6 +322,20 @@ class Model:
         return force
 
 
+def forward_steps(q: np.ndarray, upper: np.ndarray, count: int, relative_step: float
+                  ) -> list[tuple[np.ndarray, float]]:
+    """(q with coordinate j moved, the step) for each of the first ``count`` coordinates: a
+    forward step of ``relative_step`` max(1, |q_j|), backward where it would pass ``upper``."""
+    out = []
+    for j in range(count):
+        h = relative_step * max(1.0, abs(q[j]))
+        h = h if q[j] + h <= upper[j] else -h
+        moved = np.array(q, dtype=float)
+        moved[j] += h
+        out.append((moved, h))
+    return out
+
+
 def _neutral(p: Param) -> float:
     """Value of a parameter that switches its effect off (or a middle value)."""
     neutral = {"static_ratio": 1.0, "alpha": 1.0, "breakaway_ratio": 0.7}
@@ -356,4 +370,4 @@ def first_order_lag(signal: np.ndarray, time_s: np.ndarray, tau_s: float,
 ProgressFn = Callable[[str], None]
 
 __all__ = ["EFFECTS", "LAW_PARAMETERS", "EFFECT_FIELDS", "EFFECT_INTERNALS", "Param", "Scales",
-           "Model", "first_order_lag"]
+           "Model", "first_order_lag", "forward_steps"]

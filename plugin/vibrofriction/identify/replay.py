@@ -172,9 +172,25 @@ def contact_at_rest(model: mujoco.MjModel, data: mujoco.MjData, friction: Fricti
             friction, force_N, normal_force_N)
 
 
+def place_rig(model: mujoco.MjModel, data: mujoco.MjData, table_m: float,
+              table_velocity_m_per_s: float, slider_m: float, slider_velocity_m_per_s: float,
+              drive_end_m: float, drive_velocity_m_per_s: float) -> None:
+    """The rig's joints at these absolute positions and velocities (the slider's joint is
+    relative to the table's)."""
+    table, slider = model.joint("table_slide"), model.joint("slider_on_table")
+    drive_end = model.joint("drive_end_slide")
+    data.qpos[table.qposadr[0]] = table_m
+    data.qpos[slider.qposadr[0]] = slider_m - table_m
+    data.qpos[drive_end.qposadr[0]] = drive_end_m
+    data.qvel[table.dofadr[0]] = table_velocity_m_per_s
+    data.qvel[slider.dofadr[0]] = slider_velocity_m_per_s - table_velocity_m_per_s
+    data.qvel[drive_end.dofadr[0]] = drive_velocity_m_per_s
+
+
 def slider_state(model: mujoco.MjModel, states: np.ndarray) -> np.ndarray:
     """(position, velocity, deflection) of the rig's slider in full-physics states
-    (... x nstate; the deflection 0 without a friction state)."""
+    (... x nstate; the deflection 0 without a friction state): what ``place_rig`` and the
+    friction state set, read back."""
     table, slider = model.joint("table_slide"), model.joint("slider_on_table")
     qvel = 1 + model.nq  # mjSTATE_FULLPHYSICS: time, qpos, qvel, act, ...
     x = states[..., 1 + table.qposadr[0]] + states[..., 1 + slider.qposadr[0]]
@@ -249,15 +265,26 @@ class RigReplay(SampleGrid):
         return max(v_rms, abs(self.rig.drive_velocity_m_per_s))
 
     @property
+    def support_step_velocity_m_per_s(self) -> np.ndarray:
+        """The table's mean velocity over each step, from its controls."""
+        return np.diff(self.control[:, 0], prepend=self.initial_support_position_m) / \
+            self.timestep_s
+
+    @property
+    def support_velocity_at_samples_m_per_s(self) -> np.ndarray:
+        """``support_step_velocity_m_per_s`` at the record's samples (each step's mean placed
+        at its midpoint, linearly interpolated)."""
+        support = self.support_step_velocity_m_per_s
+        step_mid_s = self.time_s[0] + (np.arange(len(support)) + 0.5) * self.timestep_s
+        return np.interp(self.time_s, step_mid_s, support)
+
+    @property
     def sliding_speeds_m_per_s(self) -> tuple[float, ...]:
         """Quantiles of the estimated sliding speed |slider - support| (the fit's Stribeck
         level coordinate): the slider's from the measured position, else the drive's."""
-        c = self.control[:, 0]
-        support = np.diff(c, prepend=self.initial_support_position_m) / self.timestep_s
-        step_mid_s = self.time_s[0] + (np.arange(len(c)) + 0.5) * self.timestep_s
-        support_at_samples = np.interp(self.time_s, step_mid_s, support)
         return speed_quantiles(self.time_s, self.measured.get("position_m"),
-                               self.rig.drive_velocity_m_per_s, support_at_samples)
+                               self.rig.drive_velocity_m_per_s,
+                               self.support_velocity_at_samples_m_per_s)
 
     def start_levels(self, scan: Sequence[float]) -> tuple[float, list[float]]:
         """The friction level that scales the fit and the levels a start scan tries: the
@@ -310,14 +337,8 @@ class RigReplay(SampleGrid):
         c = self.control
         table = c[step - 1, 0]
         table_velocity = (c[step, 0] - c[step - 2, 0]) / (2 * h)
-        joint = {name: model.joint(name) for name in
-                 ("table_slide", "slider_on_table", "drive_end_slide")}
-        data.qpos[joint["table_slide"].qposadr[0]] = table
-        data.qpos[joint["slider_on_table"].qposadr[0]] = x - table
-        data.qpos[joint["drive_end_slide"].qposadr[0]] = c[step - 1, 1]
-        data.qvel[joint["table_slide"].dofadr[0]] = table_velocity
-        data.qvel[joint["slider_on_table"].dofadr[0]] = v - table_velocity
-        data.qvel[joint["drive_end_slide"].dofadr[0]] = self.rig.drive_velocity_m_per_s
+        place_rig(model, data, table, table_velocity, x, v, c[step - 1, 1],
+                  self.rig.drive_velocity_m_per_s)
         if friction.law != "coulomb" and model.na:
             data.act[model.actuator("friction").actadr[0]] = z
         return full_state(model, data)
@@ -368,16 +389,9 @@ class RigReplay(SampleGrid):
         mujoco.mj_resetData(model, data)
         v0 = self.initial_velocity_m_per_s if initial_velocity_m_per_s is None else \
             initial_velocity_m_per_s
-        joint = {name: model.joint(name) for name in
-                 ("table_slide", "slider_on_table", "drive_end_slide")}
-        u0, x0 = self.initial_support_position_m, self.initial_position_m
-        data.qpos[joint["table_slide"].qposadr[0]] = u0
-        data.qpos[joint["slider_on_table"].qposadr[0]] = x0 - u0
-        data.qpos[joint["drive_end_slide"].qposadr[0]] = self.initial_drive_end_m
-        data.qvel[joint["table_slide"].dofadr[0]] = self.initial_support_velocity_m_per_s
-        data.qvel[joint["slider_on_table"].dofadr[0]] = \
-            v0 - self.initial_support_velocity_m_per_s
-        data.qvel[joint["drive_end_slide"].dofadr[0]] = self.rig.drive_velocity_m_per_s
+        place_rig(model, data, self.initial_support_position_m,
+                  self.initial_support_velocity_m_per_s, self.initial_position_m, v0,
+                  self.initial_drive_end_m, self.rig.drive_velocity_m_per_s)
         contact_at_rest(model, data, friction, self.initial_friction_N, self.rig.normal_force_N)
         return full_state(model, data)
 
@@ -654,17 +668,16 @@ def stick_phase_steps(replay: RigReplay) -> list[int]:
     ``MAX_SEGMENTS`` - 1, evenly picked): where a segmented replay's segments start, since a
     sticking slider's state is best known there (at rest, its contact holding the measured
     force). Empty without a measured position, on a sliding step grid (a vibrating sensor
-    record), where the support moves (rms velocity above ``STICK_FRACTION`` of the slider's 95th-percentile speed relative
-    to it), and where no slip stands out of the noise (``SLIP_ABOVE_NOISE``)."""
+    record), where the support moves (rms velocity above ``STICK_FRACTION`` of the slider's
+    95th-percentile speed relative to it), and where no slip stands out of the noise
+    (``SLIP_ABOVE_NOISE``)."""
     if "position_m" not in replay.measured or replay.n < 4 * MIN_STICK_SAMPLES or \
             replay.sliding:  # (samples between two steps: a sample would straddle segments)
         return []
-    support = np.diff(replay.control[:, 0], prepend=replay.initial_support_position_m) / \
-        replay.timestep_s
-    step_mid_s = replay.time_s[0] + (np.arange(len(support)) + 0.5) * replay.timestep_s
+    support = replay.support_step_velocity_m_per_s
     velocity = smoothed_derivative(replay.measured["position_m"], replay.time_s,
                                    SEGMENT_SMOOTHING_SAMPLES) - \
-        np.interp(replay.time_s, step_mid_s, support)
+        replay.support_velocity_at_samples_m_per_s
     acceleration = smoothed_derivative(velocity, replay.time_s, SEGMENT_SMOOTHING_SAMPLES)
     speed_95 = float(np.quantile(np.abs(velocity), 0.95))
     # (slips must stand out of the smoothed derivative's noise: sd sqrt(12 / (n (n^2 - 1)))

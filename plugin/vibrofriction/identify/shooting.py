@@ -23,7 +23,7 @@ from typing import Mapping, Sequence
 import numpy as np
 from scipy.optimize import least_squares
 
-from .model import Model
+from .model import Model, forward_steps
 from .replay import Replayer
 
 SHOOTING_EVALUATIONS = 40
@@ -113,14 +113,8 @@ class MultipleShooting:
 
     def _jacobian(self, q: np.ndarray, r0: np.ndarray, unpack, hi: np.ndarray) -> np.ndarray:
         k, segments = self.model.k, self.segments
-        trials, steps = [], []
-        for j in range(k):
-            h = _FD_STEP * max(1.0, abs(q[j]))
-            h = h if q[j] + h <= hi[j] else -h
-            shifted = np.array(q, dtype=float)
-            shifted[j] += h
-            trials.append(shifted)
-            steps.append(h)
+        moved = forward_steps(q, hi, k, _FD_STEP)
+        trials, steps = [t for t, _ in moved], [h for _, h in moved]
         for component in range(3):  # every segment's offset in one component at once
             shifted = np.array(q, dtype=float)
             shifted[k + component::3] += _FD_STEP

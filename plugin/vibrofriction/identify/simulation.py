@@ -58,7 +58,7 @@ from ..errors import InputError
 from ..params import FrictionParameters, RigParameters, lugre_default_bristle_damping
 from .analysis import effective_samples, uniform_spectrum
 from .fit import Metrics, _metrics
-from .model import EFFECT_INTERNALS, EFFECTS, Model, Scales
+from .model import EFFECT_INTERNALS, EFFECTS, Model, Scales, forward_steps
 from .replay import (MAX_SUBSTEPS, MIN_SAMPLES, Replayer, RigReplay, prepare_replay,
                      stick_phase_steps)
 from .shooting import MultipleShooting
@@ -360,14 +360,7 @@ class SimulationProblem:
     def jacobian(self, model: Model, q: np.ndarray, r0: np.ndarray) -> np.ndarray:
         """Forward-difference Jacobian of the weighted residual, all columns in one rollout."""
         _, hi = model.bounds()
-        shifted, steps = [], []
-        for j in range(len(q)):
-            h = _FD_STEP * max(1.0, abs(q[j]))
-            h = h if q[j] + h <= hi[j] else -h
-            qj = np.array(q, dtype=float)
-            qj[j] += h
-            shifted.append(qj)
-            steps.append(h)
+        shifted, steps = zip(*forward_steps(q, hi, len(q), _FD_STEP))
         columns = self.residuals(model, shifted)
         return np.column_stack([(r - r0) / h for r, h in zip(columns, steps)])
 
@@ -402,11 +395,7 @@ class SimulationProblem:
         at = fit.model.internal_values(fit.q)
         _, hi = fit.model.bounds()
         slopes = np.zeros((len(names), k))
-        for j in range(k):
-            h = 1e-6 * max(1.0, abs(fit.q[j]))
-            h = h if fit.q[j] + h <= hi[j] else -h
-            q = np.array(fit.q, dtype=float)
-            q[j] += h
+        for j, (q, h) in enumerate(forward_steps(fit.q, hi, k, 1e-6)):
             moved = fit.model.internal_values(q)
             slopes[:, j] = [(moved[name] - at[name]) / h for name in names]
         sd = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", slopes, covariance, slopes), 0.0))
