@@ -73,3 +73,12 @@ def paper_rig():
             vibration_velocity_amplitude_m_per_s=vibration_velocity_amplitude_m_per_s,
             **changes).validate()
     return make
+
+
+def skip_unless_builtin(name: str):
+    """Skip a test of MuJoCo's built-in variant ``name`` where the installed MuJoCo lacks it
+    (MuJoCo 4.0 added joint springyield and the passive LuGre dcmotor)."""
+    from vibrofriction.study.builtin import unavailable_variants
+    missing = unavailable_variants().get(name)
+    return pytest.mark.skipif(missing is not None,
+                              reason=f"MuJoCo {mujoco.__version__} lacks {missing}")

@@ -17,7 +17,7 @@ from dataclasses import replace
 import mujoco
 import numpy as np
 import pytest
-from conftest import PAPER_FRICTION_BOUND_N, rms, run_rollout
+from conftest import PAPER_FRICTION_BOUND_N, rms, run_rollout, skip_unless_builtin
 
 from vibrofriction import rig as rig_module
 from vibrofriction.params import RigParameters, default_friction
@@ -64,6 +64,7 @@ def _dcmotor_run(rig, friction, duration, settle, timestep_s):
                                                 builtin_friction, PERIOD_S, settle)
 
 
+@skip_unless_builtin("dcmotor-lugre")
 def test_lugre_matches_dcmotor_lugre(paper_rig):
     """At dt = 1e-6 s both are converged. Measured: mean drive force +0.03 %; the friction
     traces agree to 0.65 % of mu F_N (RMS, last 10 periods) once MuJoCo's trace is moved one step
@@ -82,6 +83,7 @@ def test_lugre_matches_dcmotor_lugre(paper_rig):
     assert shift == 1  # the dcmotor's force trails by one step
 
 
+@skip_unless_builtin("dcmotor-lugre")
 def test_lugre_at_1e5_stays_within_one_percent_of_the_converged_dcmotor(paper_rig):
     """At dt = 1e-5 s (25 steps a period) our LuGre, whose damping terms use the trapezoidal
     mean of the step's start and end velocities, stays within 1 % of the converged value;
@@ -107,6 +109,7 @@ def _springyield_model(rig: RigParameters, friction, timestep_s: float) -> mujoc
     return spec.compile()
 
 
+@skip_unless_builtin("springyield")
 @pytest.mark.parametrize("va, timestep_s", [(0.75e-3, 1e-5), (3e-3, 1e-5), (3e-3, 1e-6)])
 def test_dupont_at_full_breakaway_matches_springyield_joint(paper_rig, va, timestep_s):
     """Dupont with z_ba = 0.999 z_max is the ideal elasto-plastic (Jenkins) element, which the

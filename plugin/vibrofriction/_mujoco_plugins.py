@@ -14,6 +14,8 @@ from __future__ import annotations
 from pathlib import Path
 
 LIBRARY_NAME = "libvibrofriction_plugin.so"
+# The MuJoCo versions the sources build and pass against (pyproject.toml's build requirement).
+SUPPORTED_MUJOCO = ">=3.17,<4.1"
 
 
 def library_path() -> Path:
@@ -26,8 +28,9 @@ def version_mismatch(compiled: str, runtime: str) -> str | None:
     if compiled == runtime:
         return None
     return (f"vibrofriction was compiled against MuJoCo {compiled} but MuJoCo {runtime} is "
-            f"installed; install mujoco=={compiled} or rebuild vibrofriction "
-            "(pip install --force-reinstall --no-cache-dir .)")
+            f"installed; install mujoco=={compiled}, or rebuild vibrofriction against "
+            f"{runtime} (supported: {SUPPORTED_MUJOCO}): echo mujoco=={runtime} > c.txt && "
+            "PIP_CONSTRAINT=c.txt pip install --force-reinstall --no-cache-dir .")
 
 
 def register() -> None:

@@ -2,7 +2,10 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
+
+import mujoco
 
 from .common import add_common_arguments, check_replaceable_folder, parse_overrides, write_json
 from ..datasets import all_or_nothing, stage_folder
@@ -28,8 +31,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "comparison: it holds builtin.json) is replaced as a whole")
     parser.add_argument("--quick", action="store_true",
                         help="short timestep ladder and master grid")
-    parser.add_argument("--variants", default=",".join(builtin.VARIANTS), metavar="A,B,...",
-                        help="variants to run (default all): " + ", ".join(builtin.VARIANTS))
+    parser.add_argument("--variants", default=None, metavar="A,B,...",
+                        help="variants to run (default: all the installed MuJoCo can build): "
+                             + ", ".join(builtin.VARIANTS))
     parser.add_argument("--ladder", default=None, metavar="N1,N2,...",
                         help="steps per vibration period of the timestep ladder "
                              "(dt = T/(N + 0.382)); the finest is the reference")
@@ -50,7 +54,13 @@ def run(args: argparse.Namespace) -> int:
             contact_stiffness_N_per_m=PAPER_CONTACT_STIFFNESS_N_PER_M), overrides)
         changes.update(rig=rig, friction=friction)
     config = study_config(args.quick, **changes)
-    names = [v.strip() for v in args.variants.split(",") if v.strip()]
+    if args.variants is None:
+        names = list(builtin.available_variants(builtin.VARIANTS))
+        for name, why in builtin.unavailable_variants().items():
+            print(f"compare-builtin: {name} left out: MuJoCo {mujoco.__version__} lacks {why}",
+                  file=sys.stderr)
+    else:
+        names = [v.strip() for v in args.variants.split(",") if v.strip()]
     unknown = [v for v in names if v not in builtin.VARIANTS]
     if unknown:
         raise ParameterError(f"unknown variant(s) {', '.join(unknown)}; use: "

@@ -23,6 +23,7 @@ eq. 2; ``a`` from the accelerometer), whose mean over whole periods equals the m
 """
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass, replace
@@ -34,7 +35,7 @@ import numpy as np
 from mujoco import rollout as mj_rollout
 
 from .. import rig as rig_module
-from ..params import FrictionParameters, RigParameters
+from ..params import FrictionParameters, ParameterError, RigParameters
 from ..summary import RunSummary, summarize
 from .config import MM_PER_S, STATIC_TIMESTEP_S, StudyConfig, period_timestep
 from .output import new_figure, save_figure, write_csv
@@ -81,6 +82,38 @@ PLUGIN_VARIANTS = tuple(n for n, v in VARIANTS.items() if not v.builtin)
 # The Jenkins element is Dupont's law with z_ba -> z_max (docs/physics.md); 0.99 is the closest the
 # plugin allows (breakaway_ratio < 1).
 JENKINS_BREAKAWAY_RATIO = 0.99
+
+
+@functools.lru_cache(maxsize=None)
+def _missing_builtins() -> tuple[tuple[str, str], ...]:
+    missing = []
+    if not hasattr(mujoco.MjSpec().worldbody.add_body().add_joint(), "springyield"):
+        missing.append(("springyield", "joint attribute springyield"))
+    spec = mujoco.MjSpec()
+    spec.worldbody.add_body(name="b").add_joint(name="j", type=mujoco.mjtJoint.mjJNT_SLIDE)
+    spec.body("b").add_geom(size=[0.1, 0, 0])
+    try:
+        actuator = spec.add_actuator(target="j", trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        error = actuator.set_to_dcmotor(motorconst=[0.0, 0.0], resistance=1.0,
+                                        lugre=[1e5, 0.0, 1.0, 1.0, 1e-3],
+                                        ctrlspec=_DCMOTOR_INPUT_NONE)
+        if error:
+            raise ValueError(error)
+        spec.compile()
+    except (AttributeError, TypeError, ValueError) as exc:
+        missing.append(("dcmotor-lugre", f"a passive dcmotor with LuGre friction ({exc})"))
+    return tuple(missing)
+
+
+def unavailable_variants() -> dict[str, str]:
+    """Built-in variants the installed MuJoCo cannot build, with what it lacks (MuJoCo 4.0
+    added both joint springyield and the passive LuGre dcmotor)."""
+    return dict(_missing_builtins())
+
+
+def available_variants(names: Sequence[str]) -> tuple[str, ...]:
+    missing = unavailable_variants()
+    return tuple(n for n in names if n not in missing)
 
 
 def variant_friction(variant: Variant, rig: RigParameters, config: StudyConfig
@@ -320,6 +353,12 @@ def _required(errors: Sequence[float], dts: Sequence[float], tol: float, *,
 def compare(config: StudyConfig, comparison: ComparisonConfig, *,
             progress: Callable[[str], Progress | None] | None = None) -> Comparison:
     """Ladder, master curves and traces for every variant (see the module docstring)."""
+    missing = {v: why for v, why in unavailable_variants().items() if v in comparison.variants}
+    if missing:
+        raise ParameterError(
+            f"MuJoCo {mujoco.__version__} lacks what these variants need: "
+            + "; ".join(f"{v}: {why}" for v, why in missing.items())
+            + "; use MuJoCo >= 4.0 or leave them out (compare-builtin --variants)")
     base = config.rig
     f = base.vibration_frequency_Hz
     prog = progress or (lambda label: None)
@@ -579,11 +618,20 @@ does it converge to the right answer? "dt for 1 %" is the largest ladder step fr
 every finer step stays within {c.tolerance * 100:g} %; the cost is the CPU time (and wall
 time) of one single-thread run of {result.duration_s * 1e3:.0f} ms of simulated time at that step
 (the calling thread's CPU time does not depend on other load on the machine).
-
+{_not_run_note()}
 {comparison_table(result)}
 """
 
 
+def _not_run_note() -> str:
+    missing = unavailable_variants()
+    if not missing:
+        return ""
+    return (f"\nNot run: MuJoCo {mujoco.__version__} lacks "
+            + "; ".join(f"{why} ({v})" for v, why in missing.items()) + ".\n")
+
+
 __all__ = ["Variant", "VARIANTS", "BUILTIN_VARIANTS", "PLUGIN_VARIANTS", "build_variant_spec",
+           "unavailable_variants", "available_variants",
            "run_variants", "VariantRun", "ComparisonConfig", "Comparison", "compare",
            "comparison_table", "comparison_markdown", "write_comparison", "plot_comparison"]

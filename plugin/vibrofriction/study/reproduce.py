@@ -22,10 +22,14 @@ def study_config(quick: bool, **changes: Any) -> StudyConfig:
 
 
 def comparison_config(quick: bool) -> builtin.ComparisonConfig:
+    """The comparison's grids, with the variants this MuJoCo can build (builtin.md names any
+    left out)."""
+    variants = builtin.available_variants(builtin.ComparisonConfig().variants)
     if not quick:
-        return builtin.ComparisonConfig()
-    return builtin.ComparisonConfig(operating_kappas=(1.5, 6.0), ladder_steps=(25, 50, 200),
-                                    master_kappas=(1.0, 1.5, 6.0), master_steps=50)
+        return builtin.ComparisonConfig(variants=variants)
+    return builtin.ComparisonConfig(variants=variants, operating_kappas=(1.5, 6.0),
+                                    ladder_steps=(25, 50, 200), master_kappas=(1.0, 1.5, 6.0),
+                                    master_steps=50)
 
 
 def reproduce(out: Path = DEFAULT_OUT, *, config: StudyConfig | None = None,
@@ -89,6 +93,7 @@ def comparison_json(result: builtin.Comparison) -> dict[str, Any]:
         "master_steps_per_period": result.config.master_steps,
         "tolerance": result.config.tolerance,
         "static_drive_force_N": result.static,
+        "variants_not_run": builtin.unavailable_variants(),
         "variants": [{
             "variant": r.variant, "element": r.element, "target": r.target,
             "ratios": {f"{k:g}": v for k, v in r.ratios.items()},
