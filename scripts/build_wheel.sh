@@ -55,7 +55,7 @@ echo "== install the wheel alone (--only-binary: nothing is compiled) into a fre
 python3 -m venv "$work/user"
 PIP_CONSTRAINT="$constraint" "$work/user/bin/pip" install -q --only-binary=:all: "$wheel[test,dask]"
 "$work/user/bin/python" - <<'EOF'
-import glob, os, sys
+import glob, os, re, sys
 from importlib import metadata
 import mujoco  # no `import vibrofriction`: the entry point must register the plugins
 
@@ -69,11 +69,13 @@ if not entry_points:
     vibrofriction.load()
 spec = metadata.distribution("vibrofriction").locate_file("vibrofriction/mjcf_models")
 scenes = sorted(glob.glob(os.path.join(str(spec), "**", "*.xml"), recursive=True))
+texts = {path: open(path, encoding="utf-8").read() for path in scenes}
+included = {os.path.normpath(os.path.join(os.path.dirname(path), name))
+            for path, text in texts.items() for name in re.findall(r'<include file="([^"]+)"', text)}
 loaded = 0
 for path in scenes:
-    with open(path, encoding="utf-8") as f:
-        if "<mujocoinclude" in f.read(2000):
-            continue  # a fragment other scenes include
+    if os.path.normpath(path) in included or "<mujocoinclude" in texts[path]:
+        continue  # a part that other scenes include
     model = mujoco.MjModel.from_xml_path(path)
     mujoco.mj_step(model, mujoco.MjData(model), 5)
     loaded += 1
