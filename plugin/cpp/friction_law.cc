@@ -250,16 +250,35 @@ double KinematicCoulombForce(const LawParameters& p, const LawInput& in) {
   return Sign(in.velocity) * StribeckLevel(p, in) + p.viscous * in.velocity + p.force_offset;
 }
 
-// ---- Planar laws --------------------------------------------------------------------------------
+// ---- Vector (isotropic) laws ---------------------------------------------------------------------
+// One implementation for every dimension: the planar element uses N = 2, the contact element
+// N = 4 (the tangential velocity in world coordinates and the spin times the torsion radius).
 
 namespace {
 
+template <int N>
+double Norm(const double v[N]) {
+  double sum = 0.0;
+  for (int i = 0; i < N; ++i) sum += v[i] * v[i];
+  return std::sqrt(sum);
+}
+
+template <int N>
+double Dot(const double a[N], const double b[N]) {
+  double sum = 0.0;
+  for (int i = 0; i < N; ++i) sum += a[i] * b[i];
+  return sum;
+}
+
+template <>
+double Norm<2>(const double v[2]) { return std::hypot(v[0], v[1]); }
+
 // Unit direction of v and its speed; returns false (and leaves dir untouched) when v = 0.
-bool Direction(const double v[2], double dir[2], double* speed) {
-  *speed = std::hypot(v[0], v[1]);
+template <int N>
+bool Direction(const double v[N], double dir[N], double* speed) {
+  *speed = Norm<N>(v);
   if (!(*speed > 0)) return false;
-  dir[0] = v[0] / *speed;
-  dir[1] = v[1] / *speed;
+  for (int i = 0; i < N; ++i) dir[i] = v[i] / *speed;
   return true;
 }
 
@@ -269,39 +288,38 @@ LawInput AtSpeed(const LawInput& in, double speed) {
   return at;
 }
 
-// Dupont plastic onset in the plane: a > 0 needs z.v > 0 and |z| > z_ba. During elastic motion
-// z = z0 + v t the perpendicular part q stays fixed and the projection p grows at |v|; the onset
-// projection is sqrt(z_ba^2 - q^2) (or 0+ when q >= z_ba).
-void AdvancePlanarDupont(const LawParameters& p, const LawInput& at, const double dir[2],
-                         double speed, double z[2], double dt) {
+// Dupont plastic onset: a > 0 needs z.v > 0 and |z| > z_ba. During elastic motion z = z0 + v t
+// the perpendicular part q stays fixed and the projection p grows at |v|; the onset projection
+// is sqrt(z_ba^2 - q^2) (or 0+ when q >= z_ba).
+template <int N>
+void AdvanceVectorDupont(const LawParameters& p, const LawInput& at, const double dir[N],
+                         double speed, double z[N], double dt) {
   const double z_max = StribeckLevel(p, at) / p.contact_stiffness;
   const double z_ba = p.breakaway_ratio * CoulombLevel(p, at, 1.0) / p.contact_stiffness;
   if (z_max <= 0) {
-    z[0] = z[1] = 0.0;
+    for (int i = 0; i < N; ++i) z[i] = 0.0;
     return;
   }
   double time_left = dt;
-  const double proj = z[0] * dir[0] + z[1] * dir[1];
-  const double perp[2] = {z[0] - proj * dir[0], z[1] - proj * dir[1]};
-  const double q = std::hypot(perp[0], perp[1]);
+  const double proj = Dot<N>(z, dir);
+  double perp[N];
+  for (int i = 0; i < N; ++i) perp[i] = z[i] - proj * dir[i];
+  const double q = Norm<N>(perp);
   const double onset = q < z_ba ? std::sqrt(z_ba * z_ba - q * q) : 0.0;
   if (proj < onset || (onset == 0.0 && proj <= 0.0)) {
     const double t_elastic = (onset - proj) / speed;
     if (t_elastic >= time_left) {
-      z[0] += dir[0] * speed * time_left;
-      z[1] += dir[1] * speed * time_left;
+      for (int i = 0; i < N; ++i) z[i] += dir[i] * speed * time_left;
       return;
     }
-    z[0] = perp[0] + onset * dir[0];
-    z[1] = perp[1] + onset * dir[1];
+    for (int i = 0; i < N; ++i) z[i] = perp[i] + onset * dir[i];
     time_left -= t_elastic;
   }
-  const double r = std::hypot(z[0], z[1]);
+  const double r = Norm<N>(z);
   if (r >= z_max) {
     // a = 1: linear, exact exponential relaxation towards z_max dir.
     const double decay = std::exp(-speed * time_left / z_max);
-    z[0] = z_max * dir[0] + (z[0] - z_max * dir[0]) * decay;
-    z[1] = z_max * dir[1] + (z[1] - z_max * dir[1]) * decay;
+    for (int i = 0; i < N; ++i) z[i] = z_max * dir[i] + (z[i] - z_max * dir[i]) * decay;
     return;
   }
   // Trapezoidal, as the 1D law: z1 = z0 + h (F(z0) + F(z1)) / 2 with F(z) = dir - a(|z|) z / z_max
@@ -316,63 +334,137 @@ void AdvancePlanarDupont(const LawParameters& p, const LawInput& at, const doubl
   // |y| - h, c = h). A trapezoid with h > 2 z_max would flip the deflection across the motion.
   const bool trapezoidal = h <= z_max;
   const double c = trapezoidal ? 0.5 * h : h;
-  for (int i = 0; i < substeps; ++i) {
+  for (int k = 0; k < substeps; ++k) {
     double slope;
-    const double shrink =
-        trapezoidal ? c * plastic.Shape(std::hypot(z[0], z[1]), &slope) / z_max : 0.0;
-    const double y[2] = {z[0] * (1.0 - shrink) + h * dir[0], z[1] * (1.0 - shrink) + h * dir[1]};
-    const double y_norm = std::hypot(y[0], y[1]);
+    const double shrink = trapezoidal ? c * plastic.Shape(Norm<N>(z), &slope) / z_max : 0.0;
+    double y[N];
+    for (int i = 0; i < N; ++i) y[i] = z[i] * (1.0 - shrink) + h * dir[i];
+    const double y_norm = Norm<N>(y);
     if (!(y_norm > 0)) {
-      z[0] = z[1] = 0.0;
+      for (int i = 0; i < N; ++i) z[i] = 0.0;
       continue;
     }
     // f <= 1 bounds the rate; the guess is the explicit end point of the bracket.
     const double radius = plastic.Solve(y_norm - c, c, 1.0, y_norm);
-    z[0] = y[0] * (radius / y_norm);
-    z[1] = y[1] * (radius / y_norm);
+    for (int i = 0; i < N; ++i) z[i] = y[i] * (radius / y_norm);
   }
 }
 
 }  // namespace
 
-void PlanarDeflectionRate(const LawParameters& p, const LawInput& in, const double v[2],
-                          const double z[2], double rate[2]) {
-  rate[0] = rate[1] = 0.0;
-  double dir[2], speed;
-  if (!Direction(v, dir, &speed)) return;
+template <int N>
+void VectorDeflectionRate(const LawParameters& p, const LawInput& in, const double v[N],
+                          const double z[N], double rate[N]) {
+  for (int i = 0; i < N; ++i) rate[i] = 0.0;
+  double dir[N], speed;
+  if (!Direction<N>(v, dir, &speed)) return;
   const LawInput at = AtSpeed(in, speed);
   switch (p.law) {
     case Law::kDahl: {
       const double z_c = StribeckLevel(p, at) / p.contact_stiffness;
       if (z_c <= 0) return;
-      const double e[2] = {dir[0] - z[0] / z_c, dir[1] - z[1] / z_c};
-      const double e_norm = std::hypot(e[0], e[1]);
+      double e[N];
+      for (int i = 0; i < N; ++i) e[i] = dir[i] - z[i] / z_c;
+      const double e_norm = Norm<N>(e);
       if (!(e_norm > 0)) return;
       const double gain = speed * std::pow(e_norm, p.alpha - 1.0);
-      rate[0] = gain * e[0];
-      rate[1] = gain * e[1];
+      for (int i = 0; i < N; ++i) rate[i] = gain * e[i];
       return;
     }
     case Law::kLuGre: {
       const double z_g = StribeckLevel(p, at) / p.contact_stiffness;
       if (z_g <= 0) return;
-      rate[0] = v[0] - speed * z[0] / z_g;
-      rate[1] = v[1] - speed * z[1] / z_g;
+      for (int i = 0; i < N; ++i) rate[i] = v[i] - speed * z[i] / z_g;
       return;
     }
     case Law::kDupont: {
       const double z_max = StribeckLevel(p, at) / p.contact_stiffness;
       if (z_max <= 0) return;
       const double z_ba = p.breakaway_ratio * CoulombLevel(p, at, 1.0) / p.contact_stiffness;
-      const bool loading = z[0] * v[0] + z[1] * v[1] > 0;
-      const double a = loading ? DupontShape(std::hypot(z[0], z[1]), z_ba, z_max) : 0.0;
-      rate[0] = v[0] - a * speed * z[0] / z_max;
-      rate[1] = v[1] - a * speed * z[1] / z_max;
+      const bool loading = Dot<N>(z, v) > 0;
+      const double a = loading ? DupontShape(Norm<N>(z), z_ba, z_max) : 0.0;
+      for (int i = 0; i < N; ++i) rate[i] = v[i] - a * speed * z[i] / z_max;
       return;
     }
     case Law::kCoulomb:
       return;
   }
+}
+
+template <int N>
+void AdvanceVectorDeflection(const LawParameters& p, const LawInput& in, const double v[N],
+                             double z[N], double dt) {
+  if (!HasDeflection(p.law)) {
+    for (int i = 0; i < N; ++i) z[i] = 0.0;
+    return;
+  }
+  double dir[N], speed;
+  if (dt <= 0 || !Direction<N>(v, dir, &speed)) return;
+  const LawInput at = AtSpeed(in, speed);
+  switch (p.law) {
+    case Law::kDahl: {
+      const double z_c = StribeckLevel(p, at) / p.contact_stiffness;
+      if (z_c <= 0) {
+        for (int i = 0; i < N; ++i) z[i] = 0.0;
+        return;
+      }
+      // e = dir - z/z_c keeps its direction; |e| follows the 1D base decay.
+      double e[N];
+      for (int i = 0; i < N; ++i) e[i] = dir[i] - z[i] / z_c;
+      const double e_norm = Norm<N>(e);
+      const double scale =
+          e_norm > 0 ? DecayDahlBase(e_norm, p.alpha, speed * dt / z_c) / e_norm : 0.0;
+      for (int i = 0; i < N; ++i) z[i] = z_c * (dir[i] - e[i] * scale);
+      return;
+    }
+    case Law::kLuGre: {
+      const double z_g = StribeckLevel(p, at) / p.contact_stiffness;
+      if (z_g <= 0) {
+        for (int i = 0; i < N; ++i) z[i] = 0.0;
+        return;
+      }
+      const double decay = std::exp(-speed * dt / z_g);
+      for (int i = 0; i < N; ++i) z[i] = dir[i] * z_g + (z[i] - dir[i] * z_g) * decay;
+      return;
+    }
+    case Law::kDupont:
+      AdvanceVectorDupont<N>(p, at, dir, speed, z, dt);
+      return;
+    case Law::kCoulomb:
+      return;
+  }
+}
+
+template <int N>
+void VectorStateForce(const LawParameters& p, const LawInput& in, const double v[N],
+                      const double z[N], double force[N]) {
+  double rate[N];
+  VectorDeflectionRate<N>(p, in, v, z, rate);
+  for (int i = 0; i < N; ++i) {
+    force[i] = p.contact_stiffness * z[i] + p.bristle_damping * rate[i] + p.viscous * v[i];
+  }
+}
+
+template void VectorDeflectionRate<4>(const LawParameters&, const LawInput&, const double*,
+                                      const double*, double*);
+template void AdvanceVectorDeflection<4>(const LawParameters&, const LawInput&, const double*,
+                                         double*, double);
+template void VectorStateForce<4>(const LawParameters&, const LawInput&, const double*,
+                                  const double*, double*);
+
+void PlanarDeflectionRate(const LawParameters& p, const LawInput& in, const double v[2],
+                          const double z[2], double rate[2]) {
+  VectorDeflectionRate<2>(p, in, v, z, rate);
+}
+
+void AdvancePlanarDeflection(const LawParameters& p, const LawInput& in, const double v[2],
+                             double z[2], double dt) {
+  AdvanceVectorDeflection<2>(p, in, v, z, dt);
+}
+
+void PlanarStateForce(const LawParameters& p, const LawInput& in, const double v[2],
+                      const double z[2], double force[2]) {
+  VectorStateForce<2>(p, in, v, z, force);
 }
 
 void PlanarImplicitStateForce(const LawParameters& p, const LawInput& in, const double v[2],
@@ -382,9 +474,9 @@ void PlanarImplicitStateForce(const LawParameters& p, const LawInput& in, const 
   const double v_trial[2] = {v_free[0] - B[0] * elastic[0] - B[1] * elastic[1],
                              v_free[1] - B[2] * elastic[0] - B[3] * elastic[1]};
   double dir[2], trial_speed, speed;
-  const bool moving = Direction(v_trial, dir, &trial_speed);
+  const bool moving = Direction<2>(v_trial, dir, &trial_speed);
   speed = std::max(std::hypot(v[0], v[1]), trial_speed);
-  if (!moving && !Direction(v, dir, &speed)) {
+  if (!moving && !Direction<2>(v, dir, &speed)) {
     force[0] = elastic[0];
     force[1] = elastic[1];
     return;
@@ -417,60 +509,6 @@ void PlanarImplicitStateForce(const LawParameters& p, const LawInput& in, const 
   const double det = A[0] * A[3] - A[1] * A[2];
   force[0] = (A[3] * rhs[0] - A[1] * rhs[1]) / det;
   force[1] = (A[0] * rhs[1] - A[2] * rhs[0]) / det;
-}
-
-void AdvancePlanarDeflection(const LawParameters& p, const LawInput& in, const double v[2],
-                             double z[2], double dt) {
-  if (!HasDeflection(p.law)) {
-    z[0] = z[1] = 0.0;
-    return;
-  }
-  double dir[2], speed;
-  if (dt <= 0 || !Direction(v, dir, &speed)) return;
-  const LawInput at = AtSpeed(in, speed);
-  switch (p.law) {
-    case Law::kDahl: {
-      const double z_c = StribeckLevel(p, at) / p.contact_stiffness;
-      if (z_c <= 0) {
-        z[0] = z[1] = 0.0;
-        return;
-      }
-      // e = dir - z/z_c keeps its direction; |e| follows the 1D base decay.
-      const double e[2] = {dir[0] - z[0] / z_c, dir[1] - z[1] / z_c};
-      const double e_norm = std::hypot(e[0], e[1]);
-      const double scale =
-          e_norm > 0 ? DecayDahlBase(e_norm, p.alpha, speed * dt / z_c) / e_norm : 0.0;
-      z[0] = z_c * (dir[0] - e[0] * scale);
-      z[1] = z_c * (dir[1] - e[1] * scale);
-      return;
-    }
-    case Law::kLuGre: {
-      const double z_g = StribeckLevel(p, at) / p.contact_stiffness;
-      if (z_g <= 0) {
-        z[0] = z[1] = 0.0;
-        return;
-      }
-      const double decay = std::exp(-speed * dt / z_g);
-      const double z_ss[2] = {dir[0] * z_g, dir[1] * z_g};
-      z[0] = z_ss[0] + (z[0] - z_ss[0]) * decay;
-      z[1] = z_ss[1] + (z[1] - z_ss[1]) * decay;
-      return;
-    }
-    case Law::kDupont:
-      AdvancePlanarDupont(p, at, dir, speed, z, dt);
-      return;
-    case Law::kCoulomb:
-      return;
-  }
-}
-
-void PlanarStateForce(const LawParameters& p, const LawInput& in, const double v[2],
-                      const double z[2], double force[2]) {
-  double rate[2];
-  PlanarDeflectionRate(p, in, v, z, rate);
-  for (int i = 0; i < 2; ++i) {
-    force[i] = p.contact_stiffness * z[i] + p.bristle_damping * rate[i] + p.viscous * v[i];
-  }
 }
 
 void PlanarStickSlipForce(const LawParameters& p, const LawInput& in, const double v[2],
@@ -544,7 +582,7 @@ void PlanarStickSlipForce(const LawParameters& p, const LawInput& in, const doub
 void PlanarKinematicCoulombForce(const LawParameters& p, const LawInput& in, const double v[2],
                                  double force[2]) {
   double dir[2] = {0.0, 0.0}, speed = 0.0;
-  Direction(v, dir, &speed);
+  Direction<2>(v, dir, &speed);
   const double level = speed > 0 ? StribeckLevel(p, AtSpeed(in, speed)) : 0.0;
   force[0] = level * dir[0] + p.viscous * v[0];
   force[1] = level * dir[1] + p.viscous * v[1];

@@ -171,6 +171,19 @@ void PlanarStickSlipForce(const LawParameters& p, const LawInput& in, const doub
 void PlanarKinematicCoulombForce(const LawParameters& p, const LawInput& in, const double v[2],
                                  double force[2]);
 
+// The same state laws for an N-vector (N = 2: the functions above; N = 4: the contact element's
+// tangential velocity in world coordinates and its spin times the torsion radius). Instantiated
+// for N = 2 and 4 in friction_law.cc.
+template <int N>
+void VectorDeflectionRate(const LawParameters& p, const LawInput& in, const double v[N],
+                          const double z[N], double rate[N]);
+template <int N>
+void AdvanceVectorDeflection(const LawParameters& p, const LawInput& in, const double v[N],
+                             double z[N], double dt);
+template <int N>
+void VectorStateForce(const LawParameters& p, const LawInput& in, const double v[N],
+                      const double z[N], double force[N]);
+
 // True for the laws that keep a deflection state.
 inline bool HasDeflection(Law law) { return law != Law::kCoulomb; }
 

@@ -3,6 +3,7 @@
 #include <mujoco/mjplugin.h>
 
 #include "averaged_friction.h"  // vibrofriction.planar, vibrofriction.averaged
+#include "contact_friction.h"
 #include "friction_element.h"
 #include "lagged_tendon.h"
 #include "sampled_pd.h"
@@ -13,6 +14,7 @@ mjPLUGIN_LIB_INIT(vibrofriction) {
   vibrofriction::FrictionElement::RegisterPlugin();
   vibrofriction::SupportMotion::RegisterPlugin();
   vibrofriction::RegisterPlanarPlugins();
+  vibrofriction::ContactFriction::RegisterPlugin();
   vibrofriction::RegisterStateSensors();
   vibrofriction::LaggedTendon::RegisterPlugin();
   vibrofriction::SampledPd::RegisterPlugin();

@@ -48,6 +48,8 @@ SCENES = {
     "feeder": ROBOTS_DIR / "feeder.xml",
     "planar_rig_resolved": ROBOTS_DIR / "planar_rig_resolved.xml",
     "planar_rig_averaged": ROBOTS_DIR / "planar_rig_averaged.xml",
+    # the drop-in element vibrofriction.contact on a free part (tests/test_contact.py)
+    "free_part_on_plate": ROBOTS_DIR / "free_part_on_plate.xml",
 }
 
 

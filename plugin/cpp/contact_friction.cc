@@ -1,0 +1,261 @@
+#include "contact_friction.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <utility>
+
+#include "element_config.h"
+#include "plugin_util.h"
+
+namespace vibrofriction {
+namespace {
+
+using namespace keys;  // NOLINT: the shared MJCF keys
+
+constexpr char kPlugin[] = "vibrofriction.contact";
+constexpr char kSupport[] = "support";
+constexpr char kTorsionRadius[] = "torsion_radius";
+
+const char* const kAttributes[] = {
+    kLaw, kMu, kStiffness, kAlpha, kBreakaway, kSigma1, kViscous, kStaticRatio,
+    kStribeckVelocity, kNormalModulation, kModulationFrequency, kModulationPhase, kSupport,
+    kTorsionRadius};
+
+// condim of the contacts MuJoCo makes between geoms g1 and g2 (an explicit <pair>, else the
+// geoms' priority, else the larger condim), or 0 when contype/conaffinity exclude the pair.
+int PairCondim(const mjModel* m, int g1, int g2) {
+  for (int i = 0; i < m->npair; ++i) {
+    if ((m->pair_geom1[i] == g1 && m->pair_geom2[i] == g2) ||
+        (m->pair_geom1[i] == g2 && m->pair_geom2[i] == g1)) {
+      return m->pair_dim[i];
+    }
+  }
+  const bool collide = (m->geom_contype[g1] & m->geom_conaffinity[g2]) ||
+                       (m->geom_contype[g2] & m->geom_conaffinity[g1]);
+  if (!collide) return 0;
+  if (m->geom_priority[g1] != m->geom_priority[g2]) {
+    return m->geom_priority[g1] > m->geom_priority[g2] ? m->geom_condim[g1] : m->geom_condim[g2];
+  }
+  return std::max(m->geom_condim[g1], m->geom_condim[g2]);
+}
+
+const char* BodyName(const mjModel* m, int body) {
+  const char* name = mj_id2name(m, mjOBJ_BODY, body);
+  return name ? name : "(unnamed)";
+}
+
+}  // namespace
+
+// ---- ContactConfig -------------------------------------------------------------------------------
+
+bool ContactConfig::FromModel(const mjModel* m, int instance, ContactConfig* config,
+                              ReadScope scope) {
+  ContactConfig c;
+  LawParameters& p = c.law;
+  if (!ReadLawParameters(m, instance, kPlugin, &p)) return false;
+  if (!HasDeflection(p.law)) {
+    return ConfigError("%s: law 'coulomb' is not available for the contact element yet (its "
+                       "stick needs the contact's response); use law 'dahl', whose deflection "
+                       "is Coulomb's bristle, with a large stiffness", kPlugin);
+  }
+  if (!ReadNumber(m, instance, kPlugin, kTorsionRadius, 0.0, &c.torsion_radius)) return false;
+  if (c.torsion_radius < 0) {
+    return RejectAttribute(kPlugin, kTorsionRadius, c.torsion_radius,
+                           "must be >= 0 (m; 0: from the contact points; a uniform-pressure disc "
+                           "of radius R has 2R/3)");
+  }
+  if (!CheckIntegrator(m, kPlugin)) return false;
+  const char* support = mj_getPluginConfig(m, instance, kSupport);
+  if (!support || !support[0]) {
+    return ConfigError("%s: attribute 'support' is required: the name of the body the part rests "
+                       "on (a plate, a conveyor, a gripper finger; 'world' for the ground)",
+                       kPlugin);
+  }
+  if (scope == ReadScope::kAttributes) return true;
+  c.support = mj_name2id(m, mjOBJ_BODY, support);
+  if (c.support < 0) {
+    return ConfigError("%s: support=\"%s\" names no body of the model; give the name of the "
+                       "body the part rests on", kPlugin, support);
+  }
+  int count = 0;
+  for (int b = 0; b < m->nbody; ++b) {
+    if (m->body_plugin[b] != instance) continue;
+    c.body = b;
+    ++count;
+  }
+  if (count != 1) {
+    return ConfigError("%s: the instance is attached to %d bodies; attach it to exactly one, the "
+                       "sliding body: <body name=\"part\"> ... <plugin instance=\"..\"/></body>",
+                       kPlugin, count);
+  }
+  if (c.body == c.support) {
+    return ConfigError("%s: support=\"%s\" is the body the element is attached to; name the body "
+                       "it rests on", kPlugin, support);
+  }
+  for (int g1 = 0; g1 < m->ngeom; ++g1) {
+    if (m->geom_bodyid[g1] != c.body) continue;
+    for (int g2 = 0; g2 < m->ngeom; ++g2) {
+      if (m->geom_bodyid[g2] != c.support) continue;
+      const int condim = PairCondim(m, g1, g2);
+      if (condim == 0) continue;
+      if (condim != 1) {
+        const char* n1 = mj_id2name(m, mjOBJ_GEOM, g1);
+        const char* n2 = mj_id2name(m, mjOBJ_GEOM, g2);
+        return ConfigError(
+            "%s: the contacts between geom '%s' (body '%s') and geom '%s' (body '%s') have "
+            "condim %d, so MuJoCo adds its own friction beside the element; set condim=\"1\" on "
+            "one of them (and priority so it wins) or declare <pair geom1=.. geom2=.. "
+            "condim=\"1\"/>", kPlugin, n1 ? n1 : "(unnamed)", BodyName(m, c.body),
+            n2 ? n2 : "(unnamed)", BodyName(m, c.support), condim);
+      }
+      c.geoms.push_back(g1);
+      c.geoms.push_back(g2);
+    }
+  }
+  if (c.geoms.empty()) {
+    return ConfigError("%s: no geom of body '%s' can touch a geom of its support '%s' "
+                       "(contype/conaffinity exclude every pair); the element acts over their "
+                       "contacts", kPlugin, BodyName(m, c.body), BodyName(m, c.support));
+  }
+  std::sort(c.geoms.begin(), c.geoms.end());
+  c.geoms.erase(std::unique(c.geoms.begin(), c.geoms.end()), c.geoms.end());
+  *config = std::move(c);
+  return true;
+}
+
+// ---- ContactFriction -----------------------------------------------------------------------------
+
+void ContactFriction::SlidingVelocity(const mjModel* m, const mjData* d, const mjtNum* state,
+                                      double u[4]) {
+  const int nv = m->nv;
+  jacobian_.resize(6 * static_cast<std::size_t>(nv));
+  mjtNum* jacp = jacobian_.data();
+  mjtNum* jacr = jacp + 3 * nv;
+  const mjtNum* point = state + ContactState::kPoint;
+  const mjtNum* normal = state + ContactState::kNormal;
+  mjtNum v[3] = {0, 0, 0}, w[3] = {0, 0, 0};
+  const int bodies[2] = {config_->body, config_->support};
+  for (int k = 0; k < 2; ++k) {
+    if (bodies[k] <= 0) continue;  // the world does not move
+    mj_jac(m, d, jacp, jacr, point, bodies[k]);
+    mjtNum vk[3], wk[3];
+    mju_mulMatVec(vk, jacp, d->qvel, 3, nv);
+    mju_mulMatVec(wk, jacr, d->qvel, 3, nv);
+    const double sign = k == 0 ? 1.0 : -1.0;  // body relative to support
+    for (int i = 0; i < 3; ++i) {
+      v[i] += sign * vk[i];
+      w[i] += sign * wk[i];
+    }
+  }
+  const double along = mju_dot3(v, normal);
+  for (int i = 0; i < 3; ++i) u[i] = v[i] - along * normal[i];
+  u[3] = state[ContactState::kRadius] * mju_dot3(w, normal);
+}
+
+void ContactFriction::Compute(const mjModel* m, mjData* d, int instance) {
+  if (!config_.Refresh(m, instance)) return;
+  const mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
+  const double normal_force = state[ContactState::kNormalForce];
+  if (!(normal_force > 0)) return;  // no contact in the last step: no friction
+  double u[4];
+  SlidingVelocity(m, d, state, u);
+  const double rho = state[ContactState::kRadius];
+  LawInput in;
+  in.time = d->time;
+  in.normal_force = normal_force;
+  in.velocity = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2] + u[3] * u[3]);
+  const double zeta[4] = {state[0], state[1], state[2], rho * state[ContactState::kTwist]};
+  double f[4];
+  VectorStateForce<4>(config_->law, in, u, zeta, f);
+  const mjtNum* normal = state + ContactState::kNormal;
+  const double along = f[0] * normal[0] + f[1] * normal[1] + f[2] * normal[2];
+  mjtNum force[3], torque[3];
+  for (int i = 0; i < 3; ++i) {
+    force[i] = -(f[i] - along * normal[i]);
+    torque[i] = -rho * f[3] * normal[i];
+  }
+  const mjtNum* point = state + ContactState::kPoint;
+  mj_applyFT(m, d, force, torque, point, config_->body, d->qfrc_passive);
+  if (config_->support > 0) {
+    mju_scl3(force, force, -1);
+    mju_scl3(torque, torque, -1);
+    mj_applyFT(m, d, force, torque, point, config_->support, d->qfrc_passive);
+  }
+}
+
+void ContactFriction::Advance(const mjModel* m, mjData* d, int instance) {
+  if (!config_.Refresh(m, instance, /*later_in_step=*/true)) return;
+  mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
+  const int body = config_->body, support = config_->support;
+  // This step's contacts between the two bodies (the constraint solve has run).
+  double total = 0.0, point[3] = {0, 0, 0}, normal[3] = {0, 0, 0};
+  auto each_contact = [&](auto&& use) {
+    for (int i = 0; i < d->ncon; ++i) {
+      const mjContact& c = d->contact[i];
+      if (c.efc_address < 0) continue;
+      const int b0 = m->geom_bodyid[c.geom[0]], b1 = m->geom_bodyid[c.geom[1]];
+      const bool body_first = b0 == body && b1 == support;
+      if (!body_first && !(b0 == support && b1 == body)) continue;
+      mjtNum wrench[6];
+      mj_contactForce(m, d, i, wrench);
+      if (!(wrench[0] > 0)) continue;
+      // The frame's normal points from geom[0] to geom[1]; n points from the support to the body.
+      use(c, wrench[0], body_first ? -1.0 : 1.0);
+    }
+  };
+  each_contact([&](const mjContact& c, double fn, double sign) {
+    total += fn;
+    for (int k = 0; k < 3; ++k) {
+      point[k] += fn * c.pos[k];
+      normal[k] += sign * fn * c.frame[k];
+    }
+  });
+  if (!(total > 0) || !(mju_normalize3(normal) > 0)) {
+    mju_zero(state, ContactState::kSize);  // separated: no load, no deflection
+    return;
+  }
+  mju_scl3(point, point, 1.0 / total);
+  double rho = config_->torsion_radius;
+  if (rho == 0) {
+    each_contact([&](const mjContact& c, double fn, double) {
+      mjtNum arm[3];
+      mju_sub3(arm, c.pos, point);
+      rho += fn * mju_norm3(arm);
+    });
+    rho /= total;
+  }
+  state[ContactState::kNormalForce] = total;
+  mju_copy3(state + ContactState::kPoint, point);
+  mju_copy3(state + ContactState::kNormal, normal);
+  state[ContactState::kRadius] = rho;
+  // The deflection stays in the tangent plane as the normal turns.
+  mjtNum* z = state + ContactState::kDeflection;
+  const double along = mju_dot3(z, normal);
+  for (int k = 0; k < 3; ++k) z[k] -= along * normal[k];
+
+  const double dt = m->opt.timestep;
+  double u[4];
+  SlidingVelocity(m, d, state, u);
+  LawInput in;
+  in.time = d->time - 0.5 * dt;  // mid-step: time has already advanced
+  in.normal_force = total;
+  in.velocity = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2] + u[3] * u[3]);
+  double zeta[4] = {z[0], z[1], z[2], rho * state[ContactState::kTwist]};
+  AdvanceVectorDeflection<4>(config_->law, in, u, zeta, dt);
+  mju_copy3(z, zeta);
+  state[ContactState::kTwist] = rho > 0 ? zeta[3] / rho : 0.0;
+}
+
+void ContactFriction::RegisterPlugin() {
+  mjpPlugin plugin;
+  mjp_defaultPlugin(&plugin);
+  plugin.name = kName;
+  plugin.capabilityflags |= mjPLUGIN_PASSIVE;
+  plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
+  plugin.attributes = kAttributes;
+  SetPluginCallbacks<ContactFriction, &ContactConfig::FromModel>(&plugin);
+  mjp_registerPlugin(&plugin);
+}
+
+}  // namespace vibrofriction

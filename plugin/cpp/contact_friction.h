@@ -1,0 +1,79 @@
+// Passive-force plugin "vibrofriction.contact": dynamic friction between a body and its support
+// acting over MuJoCo's own contacts, for free bodies in unmodified scenes (a part on a vibrating
+// plate, a conveyor, a gripper finger). Attached to the sliding body:
+//   <body name="part"> <freejoint/> <plugin instance="part_friction"/> ... </body>
+// with config `support` = the support body's name and the law keys of vibrofriction.planar.
+//
+// Each step, from the contacts between the two bodies' geoms (MuJoCo solves their normal force;
+// their condim must be 1 so that MuJoCo adds no friction of its own):
+//   F_N  the summed normal force, p the force-weighted contact point, n the normal (support to
+//        body), rho the torsion radius (config `torsion_radius`, or sum F_i |p_i - p| / F_N: the
+//        moment arm of Coulomb point loads at the contacts);
+//   u    the generalized sliding velocity (v_t, rho w_n): the body's velocity relative to the
+//        support at p, tangential part (3 world components), and the relative spin about n.
+// The deflection state zeta = (z_t, rho theta) follows the planar law in these four components
+// (dahl, lugre, dupont; friction_law.h, VectorDeflectionRate<4>), so that the tangential force
+// F_t and the moment M = rho F_s n satisfy |(F_t, M/rho)| <= g(|u|): the ellipsoidal limit
+// surface of a patch (Howe & Cutkosky); a uniform-pressure disc of radius R has rho = 2R/3.
+// The body receives -F_t at p and -M, the support +F_t and +M (qfrc_passive).
+//
+// Step order: passive forces run before the constraint solve, so compute uses the contacts of
+// the previous step (kept in plugin_state by advance, which sums this step's contact forces and
+// updates zeta in closed form with the new velocity). Without contact F_N = 0: no force, and
+// zeta resets (a part lifted off and set down starts undeflected).
+#ifndef VIBROFRICTION_CONTACT_FRICTION_H_
+#define VIBROFRICTION_CONTACT_FRICTION_H_
+
+#include <vector>
+
+#include <mujoco/mujoco.h>
+
+#include "friction_law.h"
+#include "plugin_util.h"
+
+namespace vibrofriction {
+
+struct ContactConfig {
+  LawParameters law;
+  int body = -1;               // the sliding body (its <plugin instance=.../>)
+  int support = -1;            // config `support`
+  double torsion_radius = 0;   // m; 0: from the contact points
+  std::vector<int> geoms;      // geoms of body and support that can touch each other (sorted)
+
+  static bool FromModel(const mjModel* m, int instance, ContactConfig* config,
+                        ReadScope scope = ReadScope::kAll);
+};
+
+// plugin_state layout of one instance.
+struct ContactState {
+  static constexpr int kDeflection = 0;  // z_t, 3 world components (m)
+  static constexpr int kTwist = 3;       // theta, the spin deflection (rad)
+  static constexpr int kNormalForce = 4; // F_N (N)
+  static constexpr int kPoint = 5;       // p, 3 (m)
+  static constexpr int kNormal = 8;      // n, 3
+  static constexpr int kRadius = 11;     // rho (m)
+  static constexpr int kSize = 12;
+};
+
+class ContactFriction {
+ public:
+  static constexpr char kName[] = "vibrofriction.contact";
+
+  explicit ContactFriction(CachedConfig<ContactConfig> config) : config_(std::move(config)) {}
+  static void RegisterPlugin();
+  static int StateSize(const mjModel*, int) { return ContactState::kSize; }
+
+  void Compute(const mjModel* m, mjData* d, int instance);
+  void Advance(const mjModel* m, mjData* d, int instance);
+
+ private:
+  // The generalized velocity u (4) at point p about normal n, with rho, for the current qvel.
+  void SlidingVelocity(const mjModel* m, const mjData* d, const mjtNum* state, double u[4]);
+
+  CachedConfig<ContactConfig> config_;
+  std::vector<mjtNum> jacobian_;  // 4 x 3 nv: translation and rotation of body and support
+};
+
+}  // namespace vibrofriction
+
+#endif  // VIBROFRICTION_CONTACT_FRICTION_H_

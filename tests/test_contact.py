@@ -1,0 +1,279 @@
+"""``vibrofriction.contact``: the drop-in element for free bodies on MuJoCo's own contacts.
+
+Checked against the heavy-body kinematic limits (docs/physics.md: a body much heavier than
+the friction impulse of one vibration period creeps at the rigid-Coulomb value), the Coulomb
+torsional rate of a spinning disc, lift-off and set-down, the state round trip, and against the
+slide-joint planar element on the same motion.
+"""
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+import vibrofriction
+from vibrofriction import analytic
+
+MU = 0.2
+GRAVITY = 9.81
+STATE_SIZE = 12  # z_t (3), theta, F_N, point (3), normal (3), rho
+
+
+def _scene(*, law="dahl", frequency_Hz=1000.0, amplitude_m_per_s=0.02, stiffness=1e9,
+           part_geom='type="box" size="0.05 0.05 0.05"', part_condim=1, extra="",
+           timestep=1e-5, part_z=0.06):
+    return f"""
+<mujoco>
+  <option timestep="{timestep}" integrator="implicitfast"/>
+  <extension>
+    <plugin plugin="vibrofriction.contact">
+      <instance name="part_friction">
+        <config key="law" value="{law}"/>
+        <config key="mu" value="{MU}"/>
+        <config key="stiffness" value="{stiffness}"/>
+        <config key="support" value="plate"/>
+        {extra}
+      </instance>
+    </plugin>
+    <plugin plugin="vibrofriction.motion">
+      <instance name="shaker">
+        <config key="frequency" value="{frequency_Hz}"/>
+        <config key="velocity_amplitude" value="{amplitude_m_per_s}"/>
+      </instance>
+    </plugin>
+  </extension>
+  <worldbody>
+    <body name="plate">
+      <joint name="plate_x" type="slide" axis="1 0 0"/>
+      <geom name="plate" type="box" size="1 1 0.01" mass="10" condim="1"/>
+    </body>
+    <body name="part" pos="0 0 {part_z}">
+      <freejoint/>
+      <geom name="part" {part_geom} mass="1" condim="{part_condim}"/>
+      <plugin instance="part_friction"/>
+    </body>
+  </worldbody>
+  <actuator>
+    <plugin name="shaker" joint="plate_x" instance="shaker"/>
+  </actuator>
+</mujoco>"""
+
+
+def _model(**kwargs) -> mujoco.MjModel:
+    vibrofriction.load()
+    return mujoco.MjModel.from_xml_string(_scene(**kwargs))
+
+
+def _push(model, data, steps, force=(0.0, 0.0, 0.0), record=None):
+    part = model.body("part").id
+    out = []
+    for _ in range(steps):
+        data.xfrc_applied[part, :3] = force
+        mujoco.mj_step(model, data)
+        if record is not None:
+            out.append(record(data))
+    return np.array(out)
+
+
+def _mean_velocity(model, data, steps, force, axis):
+    """Mean velocity of the part along `axis` over the second half of `steps`."""
+    positions = _push(model, data, steps, force, lambda d: d.body("part").xpos[axis].copy())
+    time = np.arange(1, steps + 1) * model.opt.timestep
+    half = steps // 2
+    return np.polyfit(time[half:], positions[half:], 1)[0]
+
+
+@pytest.mark.parametrize("fraction", [0.3, 0.7])
+def test_a_free_box_pushed_below_mu_mg_creeps_at_the_longitudinal_kinematic_value(fraction):
+    """Pushed along the vibration at F = f mu m g, the heavy body creeps at v = v_a sin(pi f/2)
+    (f = (2/pi) arcsin(v/v_a)). Measured: within 0.02 %."""
+    model = _model()
+    data = mujoco.MjData(model)
+    v = _mean_velocity(model, data, 40000, (fraction * MU * GRAVITY, 0, 0), axis=0)
+    expected = 0.02 * math.sin(math.pi * fraction / 2)
+    assert analytic.coulomb_kinematic_ratio(expected / 0.02) == pytest.approx(fraction)
+    assert v == pytest.approx(expected, rel=0.02)
+
+
+def test_pushed_across_the_vibration_it_creeps_at_the_transverse_elliptic_value():
+    fraction = 0.5
+    model = _model()
+    data = mujoco.MjData(model)
+    v = _mean_velocity(model, data, 40000, (0, fraction * MU * GRAVITY, 0), axis=1)
+    xi = brentq(lambda x: float(analytic.transverse_kinematic_ratio(x)) - fraction, 1e-6, 100)
+    assert v == pytest.approx(xi * 0.02, rel=0.02)
+
+
+def test_without_vibration_it_holds_below_mu_mg_and_slides_above():
+    model = _model(amplitude_m_per_s=0.0)
+    data = mujoco.MjData(model)
+    _push(model, data, 3000)  # settle on the plate: the load builds up in MuJoCo's contact
+    x = _push(model, data, 20000, (0.7 * MU * GRAVITY, 0, 0),
+              lambda d: d.body("part").xpos[0].copy())
+    # It leans into the push on MuJoCo's soft normal contact (16 um at the centre of mass) and
+    # comes to rest there: over the last 0.05 s it moves by under 0.2 um, where sliding at even
+    # a tenth of the vibrated creep speed would take 0.7 mm.
+    assert abs(x[-1] - x[-5000]) < 2e-7
+    # Pushed at 1.5 mu m g it accelerates at (F - mu m g)/m.
+    v = _push(model, data, 20000, (1.5 * MU * GRAVITY, 0, 0),
+              lambda d: d.qvel[model.jnt_dofadr[model.joint(1).id]].copy())
+    time = np.arange(1, len(v) + 1) * model.opt.timestep
+    acceleration = np.polyfit(time[5000:], v[5000:], 1)[0]
+    assert acceleration == pytest.approx(0.5 * MU * GRAVITY, rel=0.01)
+
+
+def test_a_spinning_disc_decays_at_the_coulomb_torsional_rate():
+    """Uniform pressure over a disc of radius R: M = (2/3) mu F_N R (torsion_radius = 2R/3), so
+    omega falls linearly at M / I_z, I_z = m R^2 / 2."""
+    radius = 0.05
+    model = _model(amplitude_m_per_s=0.0, part_geom=f'type="cylinder" size="{radius} 0.01"',
+                   part_z=0.02, extra=f'<config key="torsion_radius" value="{2 * radius / 3}"/>')
+    data = mujoco.MjData(model)
+    _push(model, data, 20000)  # settle on the plate (MuJoCo's contact: time constant 0.02 s)
+    dof = model.jnt_dofadr[model.joint(1).id]
+    data.qvel[dof + 5] = 3.0  # rad/s about z
+    spin = _push(model, data, 20000, record=lambda d: d.qvel[dof + 5].copy())
+    time = np.arange(1, len(spin) + 1) * model.opt.timestep
+    moving = spin > 0.5
+    rate = -np.polyfit(time[moving][100:], spin[moving][100:], 1)[0]
+    inertia = model.body_inertia[model.body("part").id][2]
+    assert inertia == pytest.approx(0.5 * radius**2, rel=1e-6)
+    expected = MU * GRAVITY * (2 * radius / 3) / inertia
+    assert rate == pytest.approx(expected, rel=0.02)
+    # and it stops (held by the torsional deflection), rather than turning back
+    assert abs(spin[-1]) < 1e-3
+
+
+def test_lift_off_leaves_no_force_and_no_state_and_set_down_starts_fresh():
+    model = _model()
+    data = mujoco.MjData(model)
+    part = model.body("part").id
+    adr = model.plugin_stateadr[0]
+    _push(model, data, 5000, (0.5 * MU * GRAVITY, 0, 0))
+    assert data.plugin_state[adr + 4] == pytest.approx(GRAVITY, rel=1e-2)  # F_N = m g
+    # Lifted: 2 m g upwards. Once airborne, no friction: a side push accelerates it freely.
+    _push(model, data, 3000, (0, 0, 2 * GRAVITY))
+    assert data.body("part").xpos[2] > 0.061
+    assert np.all(data.plugin_state[adr:adr + STATE_SIZE] == 0)
+    dof = model.jnt_dofadr[model.joint(1).id]
+    before = data.qvel[dof].copy()
+    _push(model, data, 100, (1.0, 0, 2 * GRAVITY))
+    assert (data.qvel[dof] - before) == pytest.approx(1.0 * 100 * model.opt.timestep, rel=1e-6)
+    # Set down again: the load comes back, the deflection starts from zero and stays bounded.
+    _push(model, data, 30000, (0, 0, 0))
+    assert data.plugin_state[adr + 4] == pytest.approx(GRAVITY, rel=1e-2)
+    z = data.plugin_state[adr:adr + 3]
+    assert np.linalg.norm(z) <= MU * GRAVITY / 1e9 * 1.001
+
+
+def test_the_state_round_trips_through_mj_get_and_set_state():
+    model = _model()
+    data = mujoco.MjData(model)
+    _push(model, data, 3000, (0.5 * MU * GRAVITY, 0, 0))
+    spec = mujoco.mjtState.mjSTATE_INTEGRATION  # with the warm start: bitwise
+    state = np.empty(mujoco.mj_stateSize(model, spec))
+    mujoco.mj_getState(model, data, state, spec)
+    copy = mujoco.MjData(model)
+    mujoco.mj_setState(model, copy, state, spec)
+    a = _push(model, data, 500, (0.5 * MU * GRAVITY, 0, 0), lambda d: d.qvel.copy())
+    b = _push(model, copy, 500, (0.5 * MU * GRAVITY, 0, 0), lambda d: d.qvel.copy())
+    np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"part_condim": 3}, "condim 3, so MuJoCo adds its own friction"),
+    ({"law": "coulomb"}, "law 'coulomb' is not available for the contact element"),
+    ({"extra": '<config key="torsion_radius" value="-1"/>'}, "torsion_radius"),
+])
+def test_bad_configs_are_refused_naming_the_fix(change, message):
+    with pytest.raises(ValueError, match=message):
+        _model(**change)
+
+
+def test_a_missing_or_unknown_support_is_refused():
+    vibrofriction.load()
+    text = _scene()
+    with pytest.raises(ValueError, match="names no body"):
+        mujoco.MjModel.from_xml_string(text.replace('value="plate"/>', 'value="table"/>'))
+    with pytest.raises(ValueError, match="'support' is required"):
+        mujoco.MjModel.from_xml_string(
+            text.replace('<config key="support" value="plate"/>', ""))
+
+
+def _planar_scene(stiffness=1e9):
+    """The same part and plate with the slide-joint planar element (the part a child of the
+    plate, x and y slides, the normal load m g given)."""
+    return f"""
+<mujoco>
+  <option timestep="1e-5" integrator="implicitfast"/>
+  <extension>
+    <plugin plugin="vibrofriction.planar">
+      <instance name="part_friction">
+        <config key="law" value="dahl"/>
+        <config key="mu" value="{MU}"/>
+        <config key="stiffness" value="{stiffness}"/>
+        <config key="normal" value="{GRAVITY}"/>
+      </instance>
+    </plugin>
+    <plugin plugin="vibrofriction.motion">
+      <instance name="shaker">
+        <config key="frequency" value="1000"/>
+        <config key="velocity_amplitude" value="0.02"/>
+      </instance>
+    </plugin>
+  </extension>
+  <worldbody>
+    <body name="plate">
+      <joint name="plate_x" type="slide" axis="1 0 0"/>
+      <geom type="box" size="1 1 0.01" mass="10" contype="0" conaffinity="0"/>
+      <body name="part" pos="0 0 0.06">
+        <joint name="part_x" type="slide" axis="1 0 0"/>
+        <joint name="part_y" type="slide" axis="0 1 0"/>
+        <geom type="box" size="0.05 0.05 0.05" mass="1" contype="0" conaffinity="0"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <plugin name="shaker" joint="plate_x" instance="shaker"/>
+    <plugin joint="part_x" instance="part_friction" actdim="1"/>
+    <plugin joint="part_y" instance="part_friction" actdim="1"/>
+  </actuator>
+</mujoco>"""
+
+
+def test_the_drop_in_element_equals_the_slide_joint_planar_element():
+    """Pushed obliquely at 0.6 mu m g over the vibrating plate: the free part on MuJoCo's
+    contacts creeps as the part on slide joints with the planar element (the same law)."""
+    vibrofriction.load()
+    push = 0.6 * MU * GRAVITY * np.array([math.cos(0.5), math.sin(0.5), 0.0])
+    free = _model()
+    free_data = mujoco.MjData(free)
+    _push(free, free_data, 3000)  # settle
+    def on_plate(data):  # the part's position relative to the (vibrating) plate
+        return data.body("part").xpos[:2] - [data.qpos[0], 0.0]
+    start = on_plate(free_data)
+    _push(free, free_data, 30000, push)
+    planar = mujoco.MjModel.from_xml_string(_planar_scene())
+    planar_data = mujoco.MjData(planar)
+    _push(planar, planar_data, 30000, push)
+    free_travel = on_plate(free_data) - start
+    # the planar part's travel relative to the plate: its slide joints
+    planar_travel = planar_data.qpos[1:3]
+    np.testing.assert_allclose(free_travel, planar_travel,
+                               rtol=0.005, atol=0.005 * np.linalg.norm(planar_travel))
+
+
+def test_the_bundled_drop_in_scene_steps_without_warnings_and_creeps():
+    vibrofriction.load()
+    from vibrofriction import robots
+    model = mujoco.MjModel.from_xml_path(str(robots.scene_path("free_part_on_plate")))
+    data = mujoco.MjData(model)
+    _push(model, data, 3000)
+    start = data.body("part").xpos[0]
+    v = _mean_velocity(model, data, 20000, (0.5 * MU * GRAVITY, 0, 0), axis=0)
+    assert v == pytest.approx(0.02 * math.sin(math.pi * 0.5 / 2), rel=0.02)
+    assert data.body("part").xpos[0] > start
+    assert all(w.number == 0 for w in data.warning)
