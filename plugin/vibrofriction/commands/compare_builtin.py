@@ -54,11 +54,9 @@ def run(args: argparse.Namespace) -> int:
             contact_stiffness_N_per_m=PAPER_CONTACT_STIFFNESS_N_PER_M), overrides)
         changes.update(rig=rig, friction=friction)
     config = study_config(args.quick, **changes)
+    left_out = builtin.unavailable_variants() if args.variants is None else {}
     if args.variants is None:
         names = list(builtin.available_variants(builtin.VARIANTS))
-        for name, why in builtin.unavailable_variants().items():
-            print(f"compare-builtin: {name} left out: MuJoCo {mujoco.__version__} lacks {why}",
-                  file=sys.stderr)
     else:
         names = [v.strip() for v in args.variants.split(",") if v.strip()]
     unknown = [v for v in names if v not in builtin.VARIANTS]
@@ -81,6 +79,9 @@ def run(args: argparse.Namespace) -> int:
     cmp_config = replace(cmp_config, **cmp_changes)
     check_replaceable_folder(args.out, "--out", "builtin.json",
                              foreign={"claims.json": "vibrofriction reproduce"})
+    for name, why in left_out.items():  # after every check: a bad input is one line
+        print(f"compare-builtin: {name} left out: MuJoCo {mujoco.__version__} lacks {why}",
+              file=sys.stderr)
     log = StageLog(1, quiet=args.quiet)
     log.stage(f"{len(needed)} variants, ladder {list(cmp_config.ladder_steps)} steps per period")
     result = builtin.compare(config, cmp_config, progress=log.progress)
