@@ -277,3 +277,21 @@ def test_the_bundled_drop_in_scene_steps_without_warnings_and_creeps():
     assert v == pytest.approx(0.02 * math.sin(math.pi * 0.5 / 2), rel=0.02)
     assert data.body("part").xpos[0] > start
     assert all(w.number == 0 for w in data.warning)
+
+
+def test_rollout_keeps_the_state_as_stepping_does():
+    """mujoco.rollout starts from the full physics state (plugin_state included) and steps as
+    mj_step does."""
+    from mujoco import rollout as mj_rollout
+    model = _model()
+    data = mujoco.MjData(model)
+    _push(model, data, 2000, (0.5 * MU * GRAVITY, 0, 0))
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    start = np.empty(mujoco.mj_stateSize(model, spec))
+    mujoco.mj_getState(model, data, start, spec)
+    assert np.any(start != 0)
+    data.xfrc_applied[:] = 0
+    stepped = np.array([(mujoco.mj_step(model, data), data.qpos.copy())[1] for _ in range(300)])
+    state, _ = mj_rollout.rollout(model, mujoco.MjData(model), start, nstep=300)
+    qpos = state[0, :, 1:1 + model.nq]
+    np.testing.assert_allclose(qpos, stepped, rtol=0, atol=1e-12)
