@@ -1,21 +1,39 @@
 """One vocabulary (issue 10): every copy of the friction element's parameter table agrees with
-``vibrofriction.vocabulary.FRICTION_TERMS`` -- names, MJCF keys, C++ fields and defaults."""
+``vibrofriction.vocabulary.FRICTION_TERMS`` -- names, MJCF keys, C++ fields and defaults, the
+keys each element takes, and the docs' units and laws."""
 from __future__ import annotations
 
 import ctypes
 import dataclasses
+import fnmatch
 import re
 from pathlib import Path
 
 import pytest
 
-from vibrofriction import rig
+from vibrofriction import averaged, planar, rig
 from vibrofriction._native import _LawParameters
 from vibrofriction.params import LAWS, LIMITS, FrictionParameters
-from vibrofriction.vocabulary import ALL_LAWS, FRICTION_TERMS, LAW_STRUCT_FIELDS
+from vibrofriction.vocabulary import (ALL_ELEMENTS, ALL_LAWS, FRICTION_TERMS, LAW_STRUCT_FIELDS,
+                                      TERMS_BY_NAME, element_keys)
 
 ROOT = Path(__file__).resolve().parents[1]
 CPP = ROOT / "plugin" / "cpp"
+
+# Each element's source and its keys that are no friction term: written out here, so that a
+# friction key the C++ adds or drops and the table does not is a failure, not an own key.
+ELEMENT_SOURCES = {"friction": "friction_element.cc", "planar": "planar_friction.cc",
+                   "contact": "contact_friction.cc", "averaged": "averaged_friction.cc"}
+NORMAL_LOAD_KEYS = {"normal", "normal_sensor", "normal_gain", "normal_component",
+                    "contact_geom1", "contact_geom2"}
+OWN_KEYS = {
+    "friction": {"law", *NORMAL_LOAD_KEYS},
+    "planar": {"law", *NORMAL_LOAD_KEYS},
+    "contact": {"law", "support", "torsion_radius"},  # the load: MuJoCo's contacts
+    "averaged": {*NORMAL_LOAD_KEYS, "velocity_amplitude", "axis_angle", "use_ctrl", "table_xi",
+                 "table_angle", "table_along", "table_across"},
+}
+TABLE_KEYS = {term.mjcf_key for term in FRICTION_TERMS}
 
 
 def _cpp(name: str) -> str:
@@ -28,12 +46,53 @@ def _number(text: str) -> float:
     return float(text.rstrip("f"))
 
 
+def _key_constants(sources: str) -> dict[str, str]:
+    return dict(re.findall(r'constexpr char (k\w+)\[\] = "(\w+)";', sources))
+
+
+def _table_rows(text: str, header: str) -> list[list[str]]:
+    """The cells of each row of the markdown table whose header line starts with ``header``."""
+    lines = text[text.index(header):].splitlines()
+    rows = []
+    for line in lines[2:]:  # past the header and its |---| line
+        if not line.startswith("|"):
+            break
+        cells = re.split(r"(?<!\\)\|", line.strip().strip("|"))  # not at an escaped \|
+        rows.append([cell.strip() for cell in cells])
+    return rows
+
+
+def _backticked(text: str) -> list[str]:
+    return re.findall(r"`([\w*]+)`", text)
+
+
+def _md_section(text: str, heading: str) -> str:
+    start = text.index(heading) + len(heading)
+    following = re.search(r"^#{2,3} ", text[start:], re.M)
+    return text[start:start + following.start()] if following else text[start:]
+
+
 def test_friction_parameters_are_the_table() -> None:
     fields = {f.name: f.default for f in dataclasses.fields(FrictionParameters) if f.name != "law"}
     assert fields == {term.name: term.default for term in FRICTION_TERMS}
     assert rig.MJCF_KEYS == {term.name: term.mjcf_key for term in FRICTION_TERMS}
     for term in FRICTION_TERMS:
         assert LIMITS.get(term.name) == term.limits, term.name
+    assert planar.PLANAR_MJCF_KEYS == element_keys("planar")
+    assert averaged.AVERAGED_MJCF_KEYS == element_keys("averaged")
+
+
+def test_the_table_names_known_elements_laws_and_shaped_effects() -> None:
+    assert set(ELEMENT_SOURCES) == set(OWN_KEYS) == set(ALL_ELEMENTS)
+    for term in FRICTION_TERMS:
+        assert term.elements and set(term.elements) <= set(ALL_ELEMENTS), term.name
+        assert "friction" in term.elements, term.name  # the 1D element takes every term
+        assert term.laws and set(term.laws) <= set(ALL_LAWS), term.name
+        if term.shapes is not None:  # a wavelength or phase goes where its effect goes
+            assert TERMS_BY_NAME[term.shapes].elements == term.elements, term.name
+            assert TERMS_BY_NAME[term.shapes].shapes is None, term.name
+    for keys in OWN_KEYS.values():
+        assert not keys & TABLE_KEYS
 
 
 def test_the_cpp_law_parameters_have_the_tables_defaults() -> None:
@@ -59,7 +118,7 @@ def test_the_config_readers_read_each_key_into_its_field_with_the_tables_default
     """element_config.cc and friction_element.cc read {kKey, &field, default}; the keys'
     strings are the constants of element_config.h and friction_element.cc."""
     sources = _cpp("element_config.h") + _cpp("element_config.cc") + _cpp("friction_element.cc")
-    constants = dict(re.findall(r'constexpr char (k\w+)\[\] = "(\w+)";', sources))
+    constants = _key_constants(sources)
     read = {constants[key]: (field, _number(value)) for key, field, value in re.findall(
         r"\{(k\w+), &\w+\.(\w+), ([-+0-9.eE]+)\}", sources)}
     for term in FRICTION_TERMS:
@@ -68,10 +127,26 @@ def test_the_config_readers_read_each_key_into_its_field_with_the_tables_default
         assert default == pytest.approx(term.default, rel=1e-12), term.name
         if term.law_field:
             assert field == term.law_field, term.name
-    attributes = re.search(r"kAttributes\[\] = \{(.*?)\};", _cpp("friction_element.cc"),
-                           re.S).group(1)
-    listed = {constants[k] for k in re.findall(r"k\w+", attributes)}
-    assert {term.mjcf_key for term in FRICTION_TERMS} <= listed
+
+
+@pytest.mark.parametrize("element", ALL_ELEMENTS)
+def test_each_elements_attributes_are_the_table_keys_it_takes(element: str) -> None:
+    """The kAttributes array MuJoCo checks an element's config against: its own keys and,
+    beyond them, exactly the table keys whose row names the element."""
+    source = _cpp(ELEMENT_SOURCES[element])
+    constants = _key_constants(_cpp("element_config.h") + source)
+    attributes = re.search(r"kAttributes\[\] = \{(.*?)\};", source, re.S).group(1)
+    listed = [constants[k] for k in re.findall(r"\bk\w+", attributes)]
+    assert len(listed) == len(set(listed)), f"{element}: a key listed twice"
+    own = OWN_KEYS[element]
+    assert own <= set(listed), f"{element}: own keys not listed: {own - set(listed)}"
+    friction_keys = set(listed) - own
+    unknown = friction_keys - TABLE_KEYS
+    assert not unknown, f"{element} lists keys neither its own nor table keys: {unknown}"
+    takes = set(element_keys(element).values())
+    assert friction_keys == takes, (f"{element}: listed, the table says not taken: "
+                                    f"{friction_keys - takes}; taken, not listed: "
+                                    f"{takes - friction_keys}")
 
 
 def test_the_c_api_struct_and_the_ctypes_layout_are_the_tables() -> None:
@@ -100,3 +175,49 @@ def test_the_docs_parameter_table_names_each_key_and_default() -> None:
         documented = re.match(r"[-+0-9.e]+", cells[4])
         assert documented and float(documented.group(0)) == pytest.approx(term.default), \
             term.name
+
+
+def test_robots_docs_parameter_table_names_each_planar_key_its_unit_and_laws() -> None:
+    """docs/robots.md's table of the planar element's keys: the table's keys that element takes,
+    with their Python names, units and laws ("all" or a list, then ':' or ';' and a remark)."""
+    rows = _table_rows((ROOT / "docs" / "robots.md").read_text(),
+                       "| MJCF key | Python name (`FrictionParameters`) | unit | laws |")
+    documented = set()
+    for keys_cell, names_cell, units_cell, laws_cell in rows:
+        keys = _backticked(keys_cell)
+        if not set(keys) & TABLE_KEYS:
+            assert set(keys) <= OWN_KEYS["planar"], keys
+            continue
+        names = _backticked(names_cell)
+        units = [u.replace("–", "-") for u in units_cell.split(", ")]
+        laws_text = re.split(r"[:;]", laws_cell)[0].strip()
+        laws = set(ALL_LAWS) if laws_text == "all" else set(laws_text.split(", "))
+        assert len(units) == len(keys), keys
+        for index, key in enumerate(keys):
+            term = next((t for t in FRICTION_TERMS if t.mjcf_key == key), None)
+            assert term is not None, f"{key} is no table key"
+            name_pattern = names[index] if len(names) == len(keys) else names[0]
+            assert fnmatch.fnmatchcase(term.name, name_pattern), key
+            assert units[index] == term.unit, key
+            assert laws == set(term.laws), f"{key}: robots.md says {sorted(laws)}"
+            documented.add(key)
+    assert documented == set(element_keys("planar").values())
+
+
+@pytest.mark.parametrize("element", ["planar", "contact"])
+def test_interfaces_docs_key_paragraph_names_the_keys_the_element_takes(element: str) -> None:
+    section = _md_section((ROOT / "docs" / "interfaces.md").read_text(),
+                          f"### `vibrofriction.{element}`")
+    paragraph = section[section.index("Keys:"):].split("\n\n")[0]
+    known = TABLE_KEYS.union(*OWN_KEYS.values())
+    mentioned = set(_backticked(paragraph)) & known
+    takes = OWN_KEYS[element] | set(element_keys(element).values())
+    assert mentioned == takes, f"missing: {takes - mentioned}; not taken: {mentioned - takes}"
+
+
+def test_interfaces_docs_averaged_key_table_names_the_keys_the_element_takes() -> None:
+    section = _md_section((ROOT / "docs" / "interfaces.md").read_text(),
+                          "### `vibrofriction.averaged`")
+    listed = {key for cells in _table_rows(section, "| key |") for key in _backticked(cells[0])}
+    takes = OWN_KEYS["averaged"] | set(element_keys("averaged").values())
+    assert listed == takes, f"missing: {takes - listed}; not taken: {listed - takes}"

@@ -30,6 +30,11 @@ import numpy as np
 
 from .params import FrictionParameters, ParameterError
 from .planar import check_planar, run_planar_law
+from .vocabulary import element_keys
+
+# FrictionParameters field -> MJCF config key of vibrofriction.averaged (vocabulary.FRICTION_TERMS):
+# the law's other terms are not keys there, their effect is in the table.
+AVERAGED_MJCF_KEYS = element_keys("averaged")
 
 
 def default_xi_grid() -> np.ndarray:
@@ -78,16 +83,15 @@ class AveragedTable:
                contact_geoms: tuple[str, str] | None = None,
                use_ctrl: bool = False) -> dict[str, str]:
         """Config of a vibrofriction.averaged instance (MJCF keys, string values)."""
-        fr = self.friction
+        # mu and viscous; static_ratio and stribeck_velocity shape only the law without
+        # vibration (v_a = 0, or use_ctrl with ctrl <= 0): with vibration the table holds them.
+        law = {key: repr(float(getattr(self.friction, name)))
+               for name, key in AVERAGED_MJCF_KEYS.items()}
         config = {
-            "mu": repr(float(fr.friction_coefficient)),
+            "mu": law.pop("mu"),  # then the normal load: the order of plate_push_table.xml
             "normal": repr(float(self.normal_force_N if normal_force_N is None
                                  else normal_force_N)),
-            "viscous": repr(float(fr.viscous_N_s_per_m)),
-            # static_ratio and stribeck_velocity shape only the law without vibration (v_a = 0,
-            # or use_ctrl with ctrl <= 0); with vibration the table holds their effect.
-            "static_ratio": repr(float(fr.static_ratio)),
-            "stribeck_velocity": repr(float(fr.stribeck_velocity_m_per_s)),
+            **law,
             "velocity_amplitude": repr(float(self.vibration.velocity_amplitude_m_per_s)),
             "axis_angle": repr(float(self.vibration.axis_angle_rad)),
             "table_xi": _numbers(self.xi, 17),
@@ -203,5 +207,5 @@ def build_table(friction: FrictionParameters, vibration: Vibration, normal_force
                          along=along, across=across)
 
 
-__all__ = ["AveragedTable", "Vibration", "build_table", "default_angle_grid",
-           "default_xi_grid", "mean_force_ratio"]
+__all__ = ["AVERAGED_MJCF_KEYS", "AveragedTable", "Vibration", "build_table",
+           "default_angle_grid", "default_xi_grid", "mean_force_ratio"]

@@ -27,22 +27,19 @@ from scipy import special
 from ._native import load
 from .laws import _as_c_array, _c_parameters, _normal_argument, _time_argument
 from .params import PAPER_NORMAL_FORCE_N, FrictionParameters, ParameterError, RigParameters
-from .rig import (MJCF_DIR, MJCF_KEYS, default_times, initial_state, sensor_slices,
-                  set_plugin_config)
+from .rig import MJCF_DIR, default_times, initial_state, sensor_slices, set_plugin_config
 from .summary import averaging_window
+from .vocabulary import FRICTION_TERMS, element_keys
 
 PLANAR_RIG_PATH = MJCF_DIR / "robots" / "planar_rig_resolved.xml"
 AVERAGED_RIG_PATH = MJCF_DIR / "robots" / "planar_rig_averaged.xml"
 
-# FrictionParameters field -> MJCF config key of vibrofriction.planar: the 1D element's keys
-# (rig.MJCF_KEYS) less the effects that have no isotropic meaning.
-PLANAR_MJCF_KEYS = {name: key for name, key in MJCF_KEYS.items() if name in (
-    "friction_coefficient", "contact_stiffness_N_per_m", "alpha", "breakaway_ratio",
-    "bristle_damping_N_s_per_m", "viscous_N_s_per_m", "static_ratio", "stribeck_velocity_m_per_s",
-    "normal_force_modulation", "normal_force_modulation_frequency_Hz",
-    "normal_force_modulation_phase_rad")}
-# Effects with no isotropic meaning in the plane: must be 0.
-_NOT_PLANAR = ("asymmetry", "position_ripple", "force_offset_N", "sensor_lag_s")
+# FrictionParameters field -> MJCF config key of vibrofriction.planar (vocabulary.FRICTION_TERMS):
+# the 1D element's keys less the effects that have no isotropic meaning.
+PLANAR_MJCF_KEYS = element_keys("planar")
+# Those effects (0: off), which must be 0; their wavelength and phase are idle then.
+_NOT_PLANAR = tuple(term.name for term in FRICTION_TERMS
+                    if "planar" not in term.elements and term.shapes is None)
 
 
 def check_planar(friction: FrictionParameters) -> FrictionParameters:

@@ -3,28 +3,37 @@
 Each row gives the Python name (a ``FrictionParameters`` field, the CLI's ``--set`` name, the
 JSON key), the friction element's MJCF config key, the field of the C++ ``LawParameters``
 (also the C API's ``vf_law_parameters`` and the ctypes struct of ``_native``), the unit, the
-default, the magnitudes accepted (``params.LIMITS``: the smallest nonzero, the largest) and the
-laws it acts in. ``ALL_LAWS`` is in the order of the C++ ``Law`` enum (its values).
+default, the magnitudes accepted (``params.LIMITS``: the smallest nonzero, the largest), the
+laws it acts in and the elements whose config takes its key. ``ALL_LAWS`` is in the order of
+the C++ ``Law`` enum (its values).
 
-``rig.MJCF_KEYS``, ``params.LIMITS`` (its friction part), ``FrictionParameters``' defaults and
-``laws``' struct filling come from this table; ``tests/test_vocabulary.py`` checks the C++
-side (``friction_law.h``'s fields, defaults and law enum, the config readers' keys, fields and
-defaults, ``c_api.h``'s struct), the ctypes struct and the keys and defaults of
-``docs/simulation.md``'s parameter table against it. (Units and laws are not checked yet;
-``plugin_util.cc``'s ranges are checked at run time by ``tests/test_plugin_config.py``.)
+``rig.MJCF_KEYS``, ``planar.PLANAR_MJCF_KEYS`` (and the effects ``check_planar`` refuses),
+``averaged``'s law keys, ``params.LIMITS`` (its friction part), ``FrictionParameters``'
+defaults and ``laws``' struct filling come from this table; ``tests/test_vocabulary.py``
+checks the C++ side (``friction_law.h``'s fields, defaults and law enum, the config readers'
+keys, fields and defaults, each element's ``kAttributes``, ``c_api.h``'s struct), the ctypes
+struct, the keys and defaults of ``docs/simulation.md``'s parameter table, the keys, units and
+laws of ``docs/robots.md``'s and the element keys of ``docs/interfaces.md`` against it.
+(``plugin_util.cc``'s ranges are checked at run time by ``tests/test_plugin_config.py``.)
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 ALL_LAWS = ("coulomb", "dahl", "dupont", "lugre")
+# The elements whose config takes friction keys (vibrofriction.<name>) and the groups of them a
+# row names: every one; those that resolve the law in time (the averaged element's table holds
+# the law's shape); the 1D element alone (effects with no isotropic meaning in the plane).
+ALL_ELEMENTS = ("friction", "planar", "contact", "averaged")
+RESOLVING_ELEMENTS = ("friction", "planar", "contact")
+LINE_ELEMENT_ONLY = ("friction",)
 PAPER_CONTACT_STIFFNESS_N_PER_M = 80.0e6
 
 
 @dataclass(frozen=True)
 class Term:
     name: str  # Python, CLI and JSON name, SI unit in it
-    mjcf_key: str  # config key of vibrofriction.friction
+    mjcf_key: str  # config key, the same in every element that takes it
     law_field: str | None  # LawParameters / vf_law_parameters field (None: not a law value)
     unit: str
     default: float
@@ -32,40 +41,59 @@ class Term:
     # ``FrictionParameters.validate`` checks itself
     limits: tuple[float, float] | None
     laws: tuple[str, ...]
+    elements: tuple[str, ...]  # the elements (ALL_ELEMENTS) whose config takes mjcf_key
+    # the effect (a Term.name) whose form alone this term sets, idle while that effect is 0
+    shapes: str | None = None
 
 
 FRICTION_TERMS: tuple[Term, ...] = (
-    Term("friction_coefficient", "mu", "friction_coefficient", "-", 0.2, (0.0, 1e9), ALL_LAWS),
+    Term("friction_coefficient", "mu", "friction_coefficient", "-", 0.2, (0.0, 1e9), ALL_LAWS,
+         ALL_ELEMENTS),
     Term("contact_stiffness_N_per_m", "stiffness", "contact_stiffness", "N/m",
-         PAPER_CONTACT_STIFFNESS_N_PER_M, (0.0, 1e18), ("dahl", "dupont", "lugre")),
-    Term("alpha", "alpha", "alpha", "-", 1.0, (0.0, 1e3), ("dahl",)),
-    Term("breakaway_ratio", "breakaway", "breakaway_ratio", "-", 0.7, None, ("dupont",)),
+         PAPER_CONTACT_STIFFNESS_N_PER_M, (0.0, 1e18), ("dahl", "dupont", "lugre"),
+         RESOLVING_ELEMENTS),
+    Term("alpha", "alpha", "alpha", "-", 1.0, (0.0, 1e3), ("dahl",), RESOLVING_ELEMENTS),
+    Term("breakaway_ratio", "breakaway", "breakaway_ratio", "-", 0.7, None, ("dupont",),
+         RESOLVING_ELEMENTS),
     Term("bristle_damping_N_s_per_m", "sigma1", "bristle_damping", "N s/m", 0.0, (0.0, 1e15),
-         ("dahl", "dupont", "lugre")),
-    Term("viscous_N_s_per_m", "viscous", "viscous", "N s/m", 0.0, (0.0, 1e15), ALL_LAWS),
-    Term("static_ratio", "static_ratio", "static_ratio", "-", 1.0, (0.0, 1e3), ALL_LAWS),
+         ("dahl", "dupont", "lugre"), RESOLVING_ELEMENTS),
+    Term("viscous_N_s_per_m", "viscous", "viscous", "N s/m", 0.0, (0.0, 1e15), ALL_LAWS,
+         ALL_ELEMENTS),
+    Term("static_ratio", "static_ratio", "static_ratio", "-", 1.0, (0.0, 1e3), ALL_LAWS,
+         ALL_ELEMENTS),
     Term("stribeck_velocity_m_per_s", "stribeck_velocity", "stribeck_velocity", "m/s", 1.0e-3,
-         (1e-15, 1e3), ALL_LAWS),
-    Term("asymmetry", "asymmetry", "asymmetry", "-", 0.0, None, ALL_LAWS),
-    Term("position_ripple", "ripple", "ripple", "-", 0.0, None, ALL_LAWS),
+         (1e-15, 1e3), ALL_LAWS, ALL_ELEMENTS),
+    Term("asymmetry", "asymmetry", "asymmetry", "-", 0.0, None, ALL_LAWS, LINE_ELEMENT_ONLY),
+    Term("position_ripple", "ripple", "ripple", "-", 0.0, None, ALL_LAWS, LINE_ELEMENT_ONLY),
     Term("position_ripple_wavelength_m", "ripple_wavelength", "ripple_wavelength", "m", 1.0e-3,
-         (1e-15, 1e6), ALL_LAWS),
+         (1e-15, 1e6), ALL_LAWS, LINE_ELEMENT_ONLY, shapes="position_ripple"),
     Term("position_ripple_phase_rad", "ripple_phase", "ripple_phase", "rad", 0.0, (0.0, 1e6),
-         ALL_LAWS),
+         ALL_LAWS, LINE_ELEMENT_ONLY, shapes="position_ripple"),
     Term("normal_force_modulation", "normal_modulation", "normal_modulation", "-", 0.0, None,
-         ALL_LAWS),
+         ALL_LAWS, RESOLVING_ELEMENTS),
     Term("normal_force_modulation_frequency_Hz", "modulation_frequency",
-         "normal_modulation_frequency", "Hz", 0.0, (0.0, 1e9), ALL_LAWS),
+         "normal_modulation_frequency", "Hz", 0.0, (0.0, 1e9), ALL_LAWS, RESOLVING_ELEMENTS,
+         shapes="normal_force_modulation"),
     Term("normal_force_modulation_phase_rad", "modulation_phase", "normal_modulation_phase",
-         "rad", 0.0, (0.0, 1e6), ALL_LAWS),
-    Term("force_offset_N", "force_offset", "force_offset", "N", 0.0, (0.0, 1e9), ALL_LAWS),
+         "rad", 0.0, (0.0, 1e6), ALL_LAWS, RESOLVING_ELEMENTS, shapes="normal_force_modulation"),
+    Term("force_offset_N", "force_offset", "force_offset", "N", 0.0, (0.0, 1e9), ALL_LAWS,
+         LINE_ELEMENT_ONLY),
     # (the element's reporting, not the law: kept by the element, not in LawParameters)
-    Term("sensor_lag_s", "sensor_lag", None, "s", 0.0, (0.0, 1e3), ALL_LAWS),
+    Term("sensor_lag_s", "sensor_lag", None, "s", 0.0, (0.0, 1e3), ALL_LAWS, LINE_ELEMENT_ONLY),
 )
 TERMS_BY_NAME = {term.name: term for term in FRICTION_TERMS}
 LIMITS = {term.name: term.limits for term in FRICTION_TERMS if term.limits is not None}
 DEFAULTS = {term.name: term.default for term in FRICTION_TERMS}
 MJCF_KEYS = {term.name: term.mjcf_key for term in FRICTION_TERMS}
+
+
+def element_keys(element: str) -> dict[str, str]:
+    """Term name -> MJCF key of the terms that ``vibrofriction.<element>`` takes, in table order."""
+    if element not in ALL_ELEMENTS:
+        raise ValueError(f"unknown element {element!r}; the elements are {ALL_ELEMENTS}")
+    return {term.name: term.mjcf_key for term in FRICTION_TERMS if element in term.elements}
+
+
 # The C API struct's doubles after ``int law``, in c_api.h's order (the ABI: written out, so
 # that reordering the table cannot move them): the law values and the normal load (a rig's or
 # a sensor's, not a FrictionParameters value). tests/test_vocabulary.py checks both.
@@ -76,4 +104,5 @@ LAW_STRUCT_FIELDS = (
     "normal_modulation_phase", "force_offset")
 
 __all__ = ["Term", "FRICTION_TERMS", "TERMS_BY_NAME", "DEFAULTS", "MJCF_KEYS", "LIMITS",
-           "LAW_STRUCT_FIELDS", "ALL_LAWS", "PAPER_CONTACT_STIFFNESS_N_PER_M"]
+           "LAW_STRUCT_FIELDS", "ALL_LAWS", "ALL_ELEMENTS", "RESOLVING_ELEMENTS",
+           "LINE_ELEMENT_ONLY", "PAPER_CONTACT_STIFFNESS_N_PER_M", "element_keys"]
