@@ -295,3 +295,31 @@ def test_rollout_keeps_the_state_as_stepping_does():
     state, _ = mj_rollout.rollout(model, mujoco.MjData(model), start, nstep=300)
     qpos = state[0, :, 1:1 + model.nq]
     np.testing.assert_allclose(qpos, stepped, rtol=0, atol=1e-12)
+
+
+def test_the_contact_sensor_reports_the_force_the_element_applies():
+    """vibrofriction.contact_sensor (velocity stage): the force on the part, its spin moment, the
+    deflection, F_N and the sliding speed. Held without vibration below mu m g, the friction
+    force balances the push."""
+    vibrofriction.load()
+    text = _scene(amplitude_m_per_s=0.0).replace(
+        "</mujoco>", '<sensor><plugin name="part_friction" plugin="vibrofriction.contact_sensor">'
+        '<config key="body" value="part"/></plugin></sensor></mujoco>')
+    text = text.replace("<extension>", '<extension><plugin plugin="vibrofriction.contact_sensor"/>')
+    model = mujoco.MjModel.from_xml_string(text)
+    data = mujoco.MjData(model)
+    _push(model, data, 3000)
+    _push(model, data, 10000, (0.5 * MU * GRAVITY, 0, 0))
+    sensor = data.sensor("part_friction").data
+    assert sensor.shape == (10,)
+    # within the lean's decaying rock on MuJoCo's soft normal contact (0.2 % at 0.1 s)
+    assert sensor[0] == pytest.approx(-0.5 * MU * GRAVITY, rel=1e-2)
+    assert abs(sensor[1]) < 1e-9 and abs(sensor[3]) < 1e-9
+    # Dahl without damping: the force is k_t z of the step's start (the sensor runs before
+    # advance updates the state)
+    np.testing.assert_allclose(-sensor[0:3], 1e9 * sensor[4:7], rtol=1e-9, atol=1e-15)
+    assert sensor[8] == pytest.approx(GRAVITY, rel=1e-2)
+    assert sensor[9] < 1e-6  # held: no sliding
+    with pytest.raises(ValueError, match="has no vibrofriction.contact element"):
+        mujoco.MjModel.from_xml_string(text.replace('value="part"/></plugin></sensor>',
+                                                    'value="plate"/></plugin></sensor>'))

@@ -443,9 +443,10 @@ def test_info_reads_every_plugin_and_its_attributes_from_mujocos_registry(tmp_pa
     plugins = {p["name"]: p for p in payload["plugins"]}
     assert set(plugins) == {f"vibrofriction.{n}" for n in (
         "friction", "motion", "planar", "averaged", "contact", "friction_sensor",
-        "planar_sensor", "lagged_tendon", "sampled_pd")}
+        "planar_sensor", "contact_sensor", "lagged_tendon", "sampled_pd")}
     assert plugins["vibrofriction.friction"]["kinds"] == ["actuator"]
     assert plugins["vibrofriction.contact"]["kinds"] == ["passive"]
     assert {"support", "torsion_radius"} <= set(plugins["vibrofriction.contact"]["attributes"])
+    assert plugins["vibrofriction.contact_sensor"]["attributes"] == ["body"]
     assert set(rig_module.MJCF_KEYS.values()) <= set(plugins["vibrofriction.friction"]["attributes"])
     assert {"start_time", "ramp_periods"} <= set(plugins["vibrofriction.motion"]["attributes"])

@@ -154,6 +154,7 @@ void ContactFriction::SlidingVelocity(const mjModel* m, const mjData* d, const m
 }
 
 void ContactFriction::Compute(const mjModel* m, mjData* d, int instance) {
+  force_[0] = force_[1] = force_[2] = moment_ = speed_ = 0.0;
   if (!config_.Refresh(m, instance)) return;
   const mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
   const double normal_force = state[ContactState::kNormalForce];
@@ -176,6 +177,9 @@ void ContactFriction::Compute(const mjModel* m, mjData* d, int instance) {
     torque[i] = -rho * f[3] * normal[i];
   }
   const mjtNum* point = state + ContactState::kPoint;
+  mju_copy3(force_, force);
+  moment_ = -rho * f[3];
+  speed_ = in.velocity;
   mj_applyFT(m, d, force, torque, point, config_->body, d->qfrc_passive);
   if (config_->support > 0) {
     mju_scl3(force, force, -1);
@@ -245,6 +249,91 @@ void ContactFriction::Advance(const mjModel* m, mjData* d, int instance) {
   AdvanceVectorDeflection<4>(config_->law, in, u, zeta, dt);
   mju_copy3(z, zeta);
   state[ContactState::kTwist] = rho > 0 ? zeta[3] / rho : 0.0;
+}
+
+void ContactFriction::WriteSensor(const mjModel* m, const mjData* d, int instance,
+                                  mjtNum* out) const {
+  const mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
+  mju_copy3(out, force_);
+  out[3] = moment_;
+  mju_copy3(out + 4, state + ContactState::kDeflection);
+  out[7] = state[ContactState::kTwist];
+  out[8] = state[ContactState::kNormalForce];
+  out[9] = speed_;
+}
+
+// ---- vibrofriction.contact_sensor ----------------------------------------------------------------
+
+namespace {
+
+constexpr char kSensorPlugin[] = "vibrofriction.contact_sensor";
+constexpr char kBody[] = "body";
+const char* const kSensorAttributes[] = {kBody};
+
+struct ContactSensorConfig {
+  int element = -1;  // plugin instance of the contact element
+
+  static bool FromModel(const mjModel* m, int instance, ContactSensorConfig* config,
+                        ReadScope scope) {
+    const char* name = mj_getPluginConfig(m, instance, kBody);
+    if (name == nullptr || name[0] == '\0') {
+      return ConfigError("%s: attribute 'body' is missing; name the body a vibrofriction.contact "
+                         "element is attached to", kSensorPlugin);
+    }
+    if (scope == ReadScope::kAttributes) return true;
+    const int body = mj_name2id(m, mjOBJ_BODY, name);
+    const int element = body >= 0 ? m->body_plugin[body] : -1;
+    const mjpPlugin* plugin = element >= 0 ? mjp_getPluginAtSlot(m->plugin[element]) : nullptr;
+    if (!plugin || std::strcmp(plugin->name, ContactFriction::kName) != 0) {
+      return ConfigError("%s: body=\"%s\" has no vibrofriction.contact element; name the body "
+                         "whose <plugin instance=\"..\"/> is one", kSensorPlugin, name);
+    }
+    config->element = element;
+    return true;
+  }
+};
+
+class ContactSensor {
+ public:
+  explicit ContactSensor(CachedConfig<ContactSensorConfig> config) : config_(std::move(config)) {}
+  static int StateSize(const mjModel*, int) { return 0; }
+
+  void Compute(const mjModel* m, mjData* d, int instance) {
+    for (int s : sensors_.Of(m, instance)) {
+      mjtNum* out = d->sensordata + m->sensor_adr[s];
+      if (config_.Refresh(m, instance)) {
+        InstanceOf<ContactFriction>(d, config_->element)->WriteSensor(m, d, config_->element, out);
+      } else {
+        mju_zero(out, ContactFriction::kSensorDim);
+      }
+    }
+  }
+
+  static void RegisterPlugin() {
+    mjpPlugin plugin;
+    mjp_defaultPlugin(&plugin);
+    plugin.name = kSensorPlugin;
+    plugin.capabilityflags |= mjPLUGIN_SENSOR;
+    plugin.nattribute = 1;
+    plugin.attributes = kSensorAttributes;
+    // The element's force is computed with the passive forces: the velocity stage has it, and
+    // an acceleration-stage plugin sensor would make MuJoCo run mj_rnePostConstraint each step.
+    plugin.needstage = mjSTAGE_VEL;
+    plugin.nsensordata = +[](const mjModel*, int, int) { return ContactFriction::kSensorDim; };
+    SetPluginCallbacks<ContactSensor, &ContactSensorConfig::FromModel>(&plugin);
+    mjp_registerPlugin(&plugin);
+  }
+
+ private:
+  CachedConfig<ContactSensorConfig> config_;
+  InstanceSensors sensors_;
+};
+
+}  // namespace
+
+void RegisterContactPlugins() {
+  ContactFriction::RegisterPlugin();
+  ContactSensor::RegisterPlugin();
 }
 
 void ContactFriction::RegisterPlugin() {

@@ -58,6 +58,10 @@ struct ContactState {
 class ContactFriction {
  public:
   static constexpr char kName[] = "vibrofriction.contact";
+  // vibrofriction.contact_sensor: the force on the body (3, world), its moment about n (the
+  // spin friction), z_t (3), theta, F_N, the sliding speed |u|: this step's values (the force
+  // is computed with the passive forces, before the velocity-stage sensors).
+  static constexpr int kSensorDim = 10;
 
   explicit ContactFriction(CachedConfig<ContactConfig> config) : config_(std::move(config)) {}
   static void RegisterPlugin();
@@ -65,14 +69,23 @@ class ContactFriction {
 
   void Compute(const mjModel* m, mjData* d, int instance);
   void Advance(const mjModel* m, mjData* d, int instance);
+  void WriteSensor(const mjModel* m, const mjData* d, int instance, mjtNum* out) const;
 
  private:
   // The generalized velocity u (4) at point p about normal n, with rho, for the current qvel.
   void SlidingVelocity(const mjModel* m, const mjData* d, const mjtNum* state, double u[4]);
 
   CachedConfig<ContactConfig> config_;
-  std::vector<mjtNum> jacobian_;  // 4 x 3 nv: translation and rotation of body and support
+  std::vector<mjtNum> jacobian_;
+  // What the last Compute applied to the body (zero without contact), for the sensor.
+  double force_[3] = {0, 0, 0};
+  double moment_ = 0;
+  double speed_ = 0;  // 4 x 3 nv: translation and rotation of body and support
 };
+
+// Registers vibrofriction.contact and vibrofriction.contact_sensor (config `body`: the body the
+// element is attached to).
+void RegisterContactPlugins();
 
 }  // namespace vibrofriction
 

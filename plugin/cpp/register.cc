@@ -14,7 +14,7 @@ mjPLUGIN_LIB_INIT(vibrofriction) {
   vibrofriction::FrictionElement::RegisterPlugin();
   vibrofriction::SupportMotion::RegisterPlugin();
   vibrofriction::RegisterPlanarPlugins();
-  vibrofriction::ContactFriction::RegisterPlugin();
+  vibrofriction::RegisterContactPlugins();
   vibrofriction::RegisterStateSensors();
   vibrofriction::LaggedTendon::RegisterPlugin();
   vibrofriction::SampledPd::RegisterPlugin();
