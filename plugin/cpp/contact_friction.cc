@@ -54,11 +54,6 @@ bool ContactConfig::FromModel(const mjModel* m, int instance, ContactConfig* con
   ContactConfig c;
   LawParameters& p = c.law;
   if (!ReadLawParameters(m, instance, kPlugin, &p)) return false;
-  if (!HasDeflection(p.law)) {
-    return ConfigError("%s: law 'coulomb' is not available for the contact element yet (its "
-                       "stick needs the contact's response); use law 'dahl', whose deflection "
-                       "is Coulomb's bristle, with a large stiffness", kPlugin);
-  }
   if (!ReadNumber(m, instance, kPlugin, kTorsionRadius, 0.0, &c.torsion_radius)) return false;
   if (c.torsion_radius < 0) {
     return RejectAttribute(kPlugin, kTorsionRadius, c.torsion_radius,
@@ -129,32 +124,80 @@ bool ContactConfig::FromModel(const mjModel* m, int instance, ContactConfig* con
 void ContactFriction::SlidingVelocity(const mjModel* m, const mjData* d, const mjtNum* state,
                                       double u[4]) {
   const int nv = m->nv;
-  jacobian_.resize(6 * static_cast<std::size_t>(nv));
-  mjtNum* jacp = jacobian_.data();
-  mjtNum* jacr = jacp + 3 * nv;
+  jacobian_.assign(12 * static_cast<std::size_t>(nv), 0.0);
+  mjtNum* jacp = jacobian_.data();        // relative (body - support), 3 x nv
+  mjtNum* jacr = jacp + 3 * nv;           // 3 x nv
+  mjtNum* scratch_p = jacr + 3 * nv;      // one body's, 3 x nv
+  mjtNum* scratch_r = scratch_p + 3 * nv;
   const mjtNum* point = state + ContactState::kPoint;
   const mjtNum* normal = state + ContactState::kNormal;
-  mjtNum v[3] = {0, 0, 0}, w[3] = {0, 0, 0};
   const int bodies[2] = {config_->body, config_->support};
   for (int k = 0; k < 2; ++k) {
     if (bodies[k] <= 0) continue;  // the world does not move
-    mj_jac(m, d, jacp, jacr, point, bodies[k]);
-    mjtNum vk[3], wk[3];
-    mju_mulMatVec(vk, jacp, d->qvel, 3, nv);
-    mju_mulMatVec(wk, jacr, d->qvel, 3, nv);
+    mj_jac(m, d, scratch_p, scratch_r, point, bodies[k]);
     const double sign = k == 0 ? 1.0 : -1.0;  // body relative to support
-    for (int i = 0; i < 3; ++i) {
-      v[i] += sign * vk[i];
-      w[i] += sign * wk[i];
-    }
+    mju_addToScl(jacp, scratch_p, sign, 3 * nv);
+    mju_addToScl(jacr, scratch_r, sign, 3 * nv);
   }
+  mjtNum v[3], w[3];
+  mju_mulMatVec(v, jacp, d->qvel, 3, nv);
+  mju_mulMatVec(w, jacr, d->qvel, 3, nv);
   const double along = mju_dot3(v, normal);
   for (int i = 0; i < 3; ++i) u[i] = v[i] - along * normal[i];
   u[3] = state[ContactState::kRadius] * mju_dot3(w, normal);
 }
 
+void ContactFriction::CoulombForce(const mjModel* m, mjData* d, const mjtNum* state,
+                                   const LawInput& in, const double u[4], double f[4]) {
+  const int nv = m->nv;
+  const mjtNum* normal = state + ContactState::kNormal;
+  const double rho = state[ContactState::kRadius];
+  // Tangent directions t1, t2 (any orthonormal pair perpendicular to n).
+  mjtNum t1[3] = {0, 0, 0}, t2[3];
+  t1[std::fabs(normal[0]) < 0.9 ? 0 : 1] = 1.0;
+  const double along = mju_dot3(t1, normal);
+  for (int i = 0; i < 3; ++i) t1[i] -= along * normal[i];
+  mju_normalize3(t1);
+  mju_cross(t2, normal, t1);
+  const mjtNum* t[2] = {t1, t2};
+  rows_.resize(6 * static_cast<std::size_t>(nv));
+  mjtNum* J = rows_.data();
+  mjtNum* X = J + 3 * nv;
+  const mjtNum* jacp = jacobian_.data();
+  const mjtNum* jacr = jacp + 3 * nv;
+  for (int j = 0; j < nv; ++j) {
+    for (int r = 0; r < 2; ++r) {
+      J[r * nv + j] = t[r][0] * jacp[j] + t[r][1] * jacp[nv + j] + t[r][2] * jacp[2 * nv + j];
+    }
+    J[2 * nv + j] = rho * (normal[0] * jacr[j] + normal[1] * jacr[nv + j] +
+                           normal[2] * jacr[2 * nv + j]);
+  }
+  mj_solveM(m, d, X, J, 3);  // M^-1 J' (the factor of M is this step's)
+  const double dt = m->opt.timestep;
+  double B[9];
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) B[3 * r + c] = dt * mju_dot(J + r * nv, X + c * nv, nv);
+  }
+  const mjtNum* other = state + ContactState::kOtherAcceleration;
+  double ahead[4];  // u after this step without the element's force (estimate)
+  for (int i = 0; i < 4; ++i) ahead[i] = u[i] + dt * other[i];
+  const double v[3] = {mju_dot3(u, t[0]), mju_dot3(u, t[1]), u[3]};
+  const double v_free[3] = {mju_dot3(ahead, t[0]), mju_dot3(ahead, t[1]), ahead[3]};
+  double f3[3];
+  VectorStickSlipForce<3>(config_->law, in, v, v_free, B, f3);
+  double change[3];  // B f3: the change of (v_t . t1, v_t . t2, rho w_n) the force causes
+  for (int r = 0; r < 3; ++r) change[r] = B[3 * r] * f3[0] + B[3 * r + 1] * f3[1] + B[3 * r + 2] * f3[2];
+  for (int i = 0; i < 3; ++i) {
+    f[i] = f3[0] * t[0][i] + f3[1] * t[1][i];
+    response_[i] = change[0] * t[0][i] + change[1] * t[1][i];
+  }
+  f[3] = f3[2];
+  response_[3] = change[2];
+}
+
 void ContactFriction::Compute(const mjModel* m, mjData* d, int instance) {
   force_[0] = force_[1] = force_[2] = moment_ = speed_ = 0.0;
+  coulomb_applied_ = false;
   if (!config_.Refresh(m, instance)) return;
   const mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
   const double normal_force = state[ContactState::kNormalForce];
@@ -166,9 +209,15 @@ void ContactFriction::Compute(const mjModel* m, mjData* d, int instance) {
   in.time = d->time;
   in.normal_force = normal_force;
   in.velocity = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2] + u[3] * u[3]);
-  const double zeta[4] = {state[0], state[1], state[2], rho * state[ContactState::kTwist]};
   double f[4];
-  VectorStateForce<4>(config_->law, in, u, zeta, f);
+  if (HasDeflection(config_->law.law)) {
+    const double zeta[4] = {state[0], state[1], state[2], rho * state[ContactState::kTwist]};
+    VectorStateForce<4>(config_->law, in, u, zeta, f);
+  } else {
+    CoulombForce(m, d, state, in, u, f);
+    mju_copy(u_start_, u, 4);
+    coulomb_applied_ = true;
+  }
   const mjtNum* normal = state + ContactState::kNormal;
   const double along = f[0] * normal[0] + f[1] * normal[1] + f[2] * normal[2];
   mjtNum force[3], torque[3];
@@ -241,6 +290,15 @@ void ContactFriction::Advance(const mjModel* m, mjData* d, int instance) {
   const double dt = m->opt.timestep;
   double u[4];
   SlidingVelocity(m, d, state, u);
+  if (!HasDeflection(config_->law.law)) {
+    // The acceleration of u from every other force over this step: its change plus what the
+    // element's own force took off. Zero after a step without contact (nothing was applied).
+    mjtNum* other = state + ContactState::kOtherAcceleration;
+    for (int i = 0; i < 4; ++i) {
+      other[i] = coulomb_applied_ ? (u[i] + response_[i] - u_start_[i]) / dt : 0.0;
+    }
+    return;
+  }
   LawInput in;
   in.time = d->time - 0.5 * dt;  // mid-step: time has already advanced
   in.normal_force = total;

@@ -12,7 +12,10 @@
 //   u    the generalized sliding velocity (v_t, rho w_n): the body's velocity relative to the
 //        support at p, tangential part (3 world components), and the relative spin about n.
 // The deflection state zeta = (z_t, rho theta) follows the planar law in these four components
-// (dahl, lugre, dupont; friction_law.h, VectorDeflectionRate<4>), so that the tangential force
+// (dahl, lugre, dupont; friction_law.h, VectorDeflectionRate<4>); law coulomb is rigid, with the
+// stick/slip solve of the planar element over (v_t . t1, v_t . t2, rho w_n) (VectorStickSlipForce<3>,
+// the response B = dt J M^-1 J' of those to the force, the other forces' acceleration taken from
+// the last step). Either way the tangential force
 // F_t and the moment M = rho F_s n satisfy |(F_t, M/rho)| <= g(|u|): the ellipsoidal limit
 // surface of a patch (Howe & Cutkosky); a uniform-pressure disc of radius R has rho = 2R/3.
 // The body receives -F_t at p and -M, the support +F_t and +M (qfrc_passive).
@@ -52,7 +55,9 @@ struct ContactState {
   static constexpr int kPoint = 5;       // p, 3 (m)
   static constexpr int kNormal = 8;      // n, 3
   static constexpr int kRadius = 11;     // rho (m)
-  static constexpr int kSize = 12;
+  // law coulomb: the last step's acceleration of u from every force but the element's, 4 (as u)
+  static constexpr int kOtherAcceleration = 12;
+  static constexpr int kSize = 16;
 };
 
 class ContactFriction {
@@ -72,11 +77,23 @@ class ContactFriction {
   void WriteSensor(const mjModel* m, const mjData* d, int instance, mjtNum* out) const;
 
  private:
-  // The generalized velocity u (4) at point p about normal n, with rho, for the current qvel.
+  // The generalized velocity u (4) at point p about normal n, with rho, for the current qvel;
+  // keeps the relative Jacobians (translation, rotation: 3 x nv each) in jacobian_.
   void SlidingVelocity(const mjModel* m, const mjData* d, const mjtNum* state, double u[4]);
+  // law coulomb: the stick/slip force (4, as u) over this step, from the response of u to it
+  // (B = dt J M^-1 J' in the tangent plane and the spin) and the other forces' acceleration of
+  // the last step (one step late, like the contact's normal force).
+  void CoulombForce(const mjModel* m, mjData* d, const mjtNum* state, const LawInput& in,
+                    const double u[4], double f[4]);
 
   CachedConfig<ContactConfig> config_;
-  std::vector<mjtNum> jacobian_;
+  std::vector<mjtNum> jacobian_;  // relative translation and rotation Jacobians (6 x nv)
+  std::vector<mjtNum> rows_;      // J (3 x nv) and M^-1 J' (3 x nv)
+  // Over one step, for the coulomb law's acceleration estimate: u at compute, and the change of
+  // u that the applied force causes (B f, as u).
+  double u_start_[4] = {0, 0, 0, 0};
+  double response_[4] = {0, 0, 0, 0};
+  bool coulomb_applied_ = false;  // this step's Compute applied the coulomb force
   // What the last Compute applied to the body (zero without contact), for the sensor.
   double force_[3] = {0, 0, 0};
   double moment_ = 0;

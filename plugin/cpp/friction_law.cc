@@ -511,33 +511,73 @@ void PlanarImplicitStateForce(const LawParameters& p, const LawInput& in, const 
   force[1] = (A[0] * rhs[1] - A[2] * rhs[0]) / det;
 }
 
-void PlanarStickSlipForce(const LawParameters& p, const LawInput& in, const double v[2],
-                          const double v_free[2], const double B[4], double force[2]) {
-  // Force that brings the end-of-step velocity to zero: B F = v_free.
-  double stick[2];
-  const double det = B[0] * B[3] - B[1] * B[2];
-  const double trace = B[0] + B[3];
-  const bool invertible = det > 1e-12 * trace * trace;
-  if (B[1] == 0 && B[2] == 0) {  // decoupled axes (as the 1D element divides)
-    stick[0] = B[0] > 0 ? v_free[0] / B[0] : 0.0;
-    stick[1] = B[3] > 0 ? v_free[1] / B[3] : 0.0;
-  } else if (invertible) {
-    stick[0] = (B[3] * v_free[0] - B[1] * v_free[1]) / det;
-    stick[1] = (B[0] * v_free[1] - B[2] * v_free[0]) / det;
-  } else {  // an axis without response: decide per axis
-    stick[0] = B[0] > 0 ? v_free[0] / B[0] : 0.0;
-    stick[1] = B[3] > 0 ? v_free[1] / B[3] : 0.0;
+namespace {
+
+// Solves A x = b (N x N, row-major) by Gaussian elimination with partial pivoting; false when a
+// pivot is below `tiny` (singular to working precision at the scale of A).
+template <int N>
+bool SolveSmall(const double A[N * N], const double b[N], double tiny, double x[N]) {
+  double a[N][N + 1];
+  for (int i = 0; i < N; ++i) {
+    for (int j = 0; j < N; ++j) a[i][j] = A[N * i + j];
+    a[i][N] = b[i];
   }
-  const double stick_norm = std::hypot(stick[0], stick[1]);
+  for (int col = 0; col < N; ++col) {
+    int pivot = col;
+    for (int r = col + 1; r < N; ++r) {
+      if (std::fabs(a[r][col]) > std::fabs(a[pivot][col])) pivot = r;
+    }
+    if (!(std::fabs(a[pivot][col]) > tiny)) return false;
+    if (pivot != col) {
+      for (int j = 0; j <= N; ++j) std::swap(a[pivot][j], a[col][j]);
+    }
+    for (int r = col + 1; r < N; ++r) {
+      const double factor = a[r][col] / a[col][col];
+      for (int j = col; j <= N; ++j) a[r][j] -= factor * a[col][j];
+    }
+  }
+  for (int i = N - 1; i >= 0; --i) {
+    double sum = a[i][N];
+    for (int j = i + 1; j < N; ++j) sum -= a[i][j] * x[j];
+    x[i] = sum / a[i][i];
+  }
+  return true;
+}
+
+}  // namespace
+
+template <int N>
+void VectorStickSlipForce(const LawParameters& p, const LawInput& in, const double v[N],
+                          const double v_free[N], const double B[N * N], double force[N]) {
+  // Force that brings the end-of-step velocity to zero: B F = v_free.
+  double stick[N];
+  double trace = 0.0;
+  bool diagonal = true;
+  for (int i = 0; i < N; ++i) {
+    trace += B[N * i + i];
+    for (int j = 0; j < N; ++j) diagonal = diagonal && (i == j || B[N * i + j] == 0);
+  }
+  auto per_axis = [&] {  // decoupled axes (as the 1D element divides), or no response on one
+    for (int i = 0; i < N; ++i) stick[i] = B[N * i + i] > 0 ? v_free[i] / B[N * i + i] : 0.0;
+  };
+  bool invertible = false;
+  if (diagonal) {
+    per_axis();
+    invertible = true;
+    for (int i = 0; i < N; ++i) invertible = invertible && B[N * i + i] > 1e-12 * trace;
+  } else {
+    invertible = SolveSmall<N>(B, v_free, 1e-12 * trace, stick);
+    if (!invertible) per_axis();
+  }
+  const double stick_norm = Norm<N>(stick);
   LawInput at_rest = in;
   at_rest.velocity = 0.0;
   const double static_level = p.static_ratio * CoulombLevel(p, at_rest, 1.0);
   if (stick_norm <= static_level) {
-    force[0] = stick[0];
-    force[1] = stick[1];
+    for (int i = 0; i < N; ++i) force[i] = stick[i];
     return;
   }
-  const double speed = std::hypot(v[0], v[1]);
+  const double speed = Norm<N>(v);
   double kinetic = CoulombLevel(p, in, 1.0);
   if (p.static_ratio != 1.0) {
     const double ratio = speed / p.stribeck_velocity;
@@ -545,38 +585,48 @@ void PlanarStickSlipForce(const LawParameters& p, const LawInput& in, const doub
   }
   // Sliding: u + kinetic B u/|u| = v_free. With lambda = kinetic/|u|, u = (I + lambda B)^-1
   // v_free and lambda |u(lambda)| = kinetic, increasing in lambda from 0 to |stick| > kinetic.
-  auto end_velocity = [&](double lambda, double u[2]) {
-    const double a = 1 + lambda * B[0], b = lambda * B[1], c = lambda * B[2], d = 1 + lambda * B[3];
-    const double m_det = a * d - b * c;
-    u[0] = (d * v_free[0] - b * v_free[1]) / m_det;
-    u[1] = (a * v_free[1] - c * v_free[0]) / m_det;
+  auto end_velocity = [&](double lambda, double u[N]) {
+    double A[N * N];
+    for (int i = 0; i < N; ++i) {
+      for (int j = 0; j < N; ++j) A[N * i + j] = (i == j) + lambda * B[N * i + j];
+    }
+    SolveSmall<N>(A, v_free, 0.0, u);  // I + lambda B: B is positive semi-definite
   };
-  double dir[2] = {stick[0] / stick_norm, stick[1] / stick_norm};
-  const bool one_axis = (v_free[0] == 0 || v_free[1] == 0) && B[1] == 0 && B[2] == 0;
+  double dir[N];
+  for (int i = 0; i < N; ++i) dir[i] = stick[i] / stick_norm;
+  int moving_axes = 0;
+  for (int i = 0; i < N; ++i) moving_axes += v_free[i] != 0;
+  const bool one_axis = moving_axes <= 1 && diagonal;
   if (invertible && !one_axis && kinetic > 0) {
-    const double b_mean = std::max(0.5 * trace, 1e-300);
+    const double b_mean = std::max(trace / N, 1e-300);
     double lo = 0.0, hi = kinetic / (b_mean * std::max(stick_norm - kinetic, 1e-300 * stick_norm));
-    double u[2];
+    double u[N];
     for (int k = 0; k < 200; ++k) {  // bracket the root
       end_velocity(hi, u);
-      if (hi * std::hypot(u[0], u[1]) >= kinetic) break;
+      if (hi * Norm<N>(u) >= kinetic) break;
       lo = hi;
       hi *= 2;
     }
     for (int k = 0; k < 100 && hi - lo > 1e-15 * hi; ++k) {
       const double mid = 0.5 * (lo + hi);
       end_velocity(mid, u);
-      if (mid * std::hypot(u[0], u[1]) >= kinetic) hi = mid; else lo = mid;
+      if (mid * Norm<N>(u) >= kinetic) hi = mid; else lo = mid;
     }
     end_velocity(hi, u);
-    const double u_norm = std::hypot(u[0], u[1]);
+    const double u_norm = Norm<N>(u);
     if (u_norm > 0) {
-      dir[0] = u[0] / u_norm;
-      dir[1] = u[1] / u_norm;
+      for (int i = 0; i < N; ++i) dir[i] = u[i] / u_norm;
     }
   }
-  force[0] = kinetic * dir[0] + p.viscous * v[0];
-  force[1] = kinetic * dir[1] + p.viscous * v[1];
+  for (int i = 0; i < N; ++i) force[i] = kinetic * dir[i] + p.viscous * v[i];
+}
+
+template void VectorStickSlipForce<3>(const LawParameters&, const LawInput&, const double*,
+                                      const double*, const double*, double*);
+
+void PlanarStickSlipForce(const LawParameters& p, const LawInput& in, const double v[2],
+                          const double v_free[2], const double B[4], double force[2]) {
+  VectorStickSlipForce<2>(p, in, v, v_free, B, force);
 }
 
 void PlanarKinematicCoulombForce(const LawParameters& p, const LawInput& in, const double v[2],

@@ -184,6 +184,13 @@ template <int N>
 void VectorStateForce(const LawParameters& p, const LawInput& in, const double v[N],
                       const double z[N], double force[N]);
 
+// The rigid Coulomb stick/slip solve above for an N-vector (N = 2: PlanarStickSlipForce; N = 3:
+// the contact element's two tangential directions and its spin times the torsion radius),
+// B row-major N x N. Instantiated for N = 2 and 3.
+template <int N>
+void VectorStickSlipForce(const LawParameters& p, const LawInput& in, const double v[N],
+                          const double v_free[N], const double B[N * N], double force[N]);
+
 // True for the laws that keep a deflection state.
 inline bool HasDeflection(Law law) { return law != Law::kCoulomb; }
 
