@@ -330,6 +330,82 @@ def test_the_contact_sensor_reports_the_force_the_element_applies():
     np.testing.assert_allclose(-sensor[0:3], 1e9 * sensor[4:7], rtol=1e-9, atol=1e-15)
     assert sensor[8] == pytest.approx(GRAVITY, rel=1e-2)
     assert sensor[9] < 1e-6  # held: no sliding
-    with pytest.raises(ValueError, match="has no vibrofriction.contact element"):
+    with pytest.raises(ValueError, match="has no vibrofriction.contact or contact_averaged element"):
         mujoco.MjModel.from_xml_string(text.replace('value="part"/></plugin></sensor>',
                                                     'value="plate"/></plugin></sensor>'))
+
+
+# ---- vibrofriction.contact_averaged: the same drop-in at robot timesteps -------------------------
+
+@pytest.fixture(scope="module")
+def dahl_table():
+    """The averaged law of the resolved scene's contact (Dahl, mu 0.2, 1 N/nm, F_N = m g) under
+    its plate's vibration (1 kHz, 20 mm/s along x)."""
+    from vibrofriction.averaged import Vibration, build_table
+    from vibrofriction.params import FrictionParameters
+    friction = FrictionParameters(law="dahl", friction_coefficient=MU,
+                                  contact_stiffness_N_per_m=1e9)
+    return build_table(friction, Vibration(1000.0, 0.02), GRAVITY)
+
+
+def _averaged_model(table, timestep, **changes):
+    vibrofriction.load()
+    config = table.contact_config("plate")
+    config.update(changes)
+    keys = "\n".join(f'<config key="{k}" value="{v}"/>' for k, v in config.items())
+    return mujoco.MjModel.from_xml_string(f"""
+<mujoco>
+  <option timestep="{timestep}" integrator="implicitfast"/>
+  <extension>
+    <plugin plugin="vibrofriction.contact_averaged">
+      <instance name="part_friction">{keys}</instance>
+    </plugin>
+  </extension>
+  <worldbody>
+    <body name="plate">
+      <geom name="plate" type="box" size="1 1 0.01" mass="10" condim="1"/>
+    </body>
+    <body name="part" pos="0 0 0.06">
+      <freejoint/>
+      <geom name="part" type="box" size="0.05 0.05 0.05" mass="1" condim="1"/>
+      <plugin instance="part_friction"/>
+    </body>
+  </worldbody>
+</mujoco>""")
+
+
+@pytest.mark.parametrize("timestep", [1e-3, 2e-3])
+@pytest.mark.parametrize("fraction, axis", [(0.3, 0), (0.7, 0), (0.5, 1)])
+def test_the_averaged_drop_in_at_robot_timesteps_creeps_as_the_resolved_element(
+        dahl_table, timestep, fraction, axis):
+    """At 1 and 2 ms (the plate does not vibrate: the table holds the vibration) the part creeps
+    as the resolved element on the vibrating plate at 10 us, along and across the vibration.
+    Measured: within 0.4 %."""
+    force = [0.0, 0.0, 0.0]
+    force[axis] = fraction * MU * GRAVITY
+    averaged = _averaged_model(dahl_table, timestep)
+    data = mujoco.MjData(averaged)
+    _push(averaged, data, round(0.05 / timestep))  # settle on the plate
+    v_averaged = _mean_velocity(averaged, data, round(1.0 / timestep), tuple(force), axis=axis)
+    resolved = _model()
+    data = mujoco.MjData(resolved)
+    v_resolved = _mean_velocity(resolved, data, 40000, tuple(force), axis=axis)
+    assert v_averaged == pytest.approx(v_resolved, rel=0.03)
+
+
+def test_the_averaged_drop_in_without_vibration_holds_and_slides_at_1_ms(dahl_table):
+    model = _averaged_model(dahl_table, 1e-3, velocity_amplitude="0")
+    data = mujoco.MjData(model)
+    _push(model, data, 100)
+    x = _push(model, data, 1000, (0.7 * MU * GRAVITY, 0, 0),
+              lambda d: d.body("part").xpos[0].copy())
+    assert abs(x[-1] - x[-200]) < 1e-9
+    dof = model.jnt_dofadr[0]
+    v = _push(model, data, 1000, (1.5 * MU * GRAVITY, 0, 0), lambda d: d.qvel[dof].copy())
+    acceleration = np.polyfit(np.arange(len(v)) * 1e-3, v, 1)[0]
+    assert acceleration == pytest.approx(0.5 * MU * GRAVITY, rel=0.01)
+
+
+def test_the_averaged_drop_in_refuses_a_bad_axis(dahl_table):
+    with pytest.raises(ValueError, match="'axis' needs 3 numbers"):
+        _averaged_model(dahl_table, 1e-3, axis="0 0 0")

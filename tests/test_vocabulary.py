@@ -23,7 +23,10 @@ CPP = ROOT / "plugin" / "cpp"
 # Each element's source and its keys that are no friction term: written out here, so that a
 # friction key the C++ adds or drops and the table does not is a failure, not an own key.
 ELEMENT_SOURCES = {"friction": "friction_element.cc", "planar": "planar_friction.cc",
-                   "contact": "contact_friction.cc", "averaged": "averaged_friction.cc"}
+                   "contact": "contact_friction.cc", "averaged": "averaged_friction.cc",
+                   "contact_averaged": "contact_friction.cc"}
+# The name of each element's attribute array in its source (two plugins share contact's).
+ATTRIBUTE_ARRAYS = {"contact_averaged": "kAveragedAttributes"}
 NORMAL_LOAD_KEYS = {"normal", "normal_sensor", "normal_gain", "normal_component",
                     "contact_geom1", "contact_geom2"}
 OWN_KEYS = {
@@ -32,6 +35,8 @@ OWN_KEYS = {
     "contact": {"law", "support", "torsion_radius"},  # the load: MuJoCo's contacts
     "averaged": {*NORMAL_LOAD_KEYS, "velocity_amplitude", "axis_angle", "use_ctrl", "table_xi",
                  "table_angle", "table_along", "table_across"},
+    "contact_averaged": {"support", "torsion_radius", "velocity_amplitude", "axis", "table_xi",
+                         "table_angle", "table_along", "table_across"},
 }
 TABLE_KEYS = {term.mjcf_key for term in FRICTION_TERMS}
 
@@ -135,7 +140,8 @@ def test_each_elements_attributes_are_the_table_keys_it_takes(element: str) -> N
     beyond them, exactly the table keys whose row names the element."""
     source = _cpp(ELEMENT_SOURCES[element])
     constants = _key_constants(_cpp("element_config.h") + source)
-    attributes = re.search(r"kAttributes\[\] = \{(.*?)\};", source, re.S).group(1)
+    array = ATTRIBUTE_ARRAYS.get(element, "kAttributes")
+    attributes = re.search(rf"\b{array}\[\] = \{{(.*?)\}};", source, re.S).group(1)
     listed = [constants[k] for k in re.findall(r"\bk\w+", attributes)]
     assert len(listed) == len(set(listed)), f"{element}: a key listed twice"
     own = OWN_KEYS[element]

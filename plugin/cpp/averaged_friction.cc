@@ -14,13 +14,8 @@ namespace {
 
 using namespace keys;  // NOLINT: the shared MJCF keys (element_config.h)
 
-constexpr char kVelocityAmplitude[] = "velocity_amplitude";
 constexpr char kAxisAngle[] = "axis_angle";
 constexpr char kUseCtrl[] = "use_ctrl";
-constexpr char kTableXi[] = "table_xi";
-constexpr char kTableAngle[] = "table_angle";
-constexpr char kTableAlong[] = "table_along";
-constexpr char kTableAcross[] = "table_across";
 
 const char* const kAttributes[] = {
     kMu, kNormal, kNormalSensor, kNormalGain, kNormalComponent, kContactGeom1, kContactGeom2,
@@ -51,68 +46,96 @@ void Locate(const std::vector<double>& grid, double x, int* index, double* weigh
   *weight = (x - grid[i]) / (grid[i + 1] - grid[i]);
 }
 
-struct SolveContext {
-  const AveragedFriction* element;
-  double normal_force;
-  double velocity_amplitude;
-};
+}  // namespace
 
-// Residual R(u) = u + B F(u) - v_free.
-void Residual(const SolveContext& c, const double B[4], const double v_free[2], const double u[2],
-              double r[2]) {
-  double f[2];
-  c.element->Force(u, c.normal_force, c.velocity_amplitude, f);
-  r[0] = u[0] + B[0] * f[0] + B[1] * f[1] - v_free[0];
-  r[1] = u[1] + B[2] * f[0] + B[3] * f[1] - v_free[1];
-}
-
-// Newton with a forward-difference Jacobian and backtracking on |R|; u in/out. The law is
-// monotone and Lipschitz (piecewise bilinear), so a few iterations reach 1e-10 v_a.
-void SolveEndVelocity(const SolveContext& c, const double B[4], const double v_free[2],
-                      double u[2]) {
-  const double scale = c.velocity_amplitude + std::hypot(v_free[0], v_free[1]);
-  const double tolerance = 1e-10 * scale;
-  double r[2];
-  Residual(c, B, v_free, u, r);
-  double norm = std::hypot(r[0], r[1]);
-  for (int iter = 0; iter < 50 && norm > tolerance; ++iter) {
-    const double h = 1e-7 * (c.velocity_amplitude + std::hypot(u[0], u[1]));
-    double J[4];
-    for (int col = 0; col < 2; ++col) {
-      double up[2] = {u[0], u[1]}, rp[2];
-      up[col] += h;
-      Residual(c, B, v_free, up, rp);
-      J[col] = (rp[0] - r[0]) / h;
-      J[2 + col] = (rp[1] - r[1]) / h;
-    }
-    const double det = J[0] * J[3] - J[1] * J[2];
-    double step[2];
-    if (std::fabs(det) > 1e-300) {
-      step[0] = -(J[3] * r[0] - J[1] * r[1]) / det;
-      step[1] = -(J[0] * r[1] - J[2] * r[0]) / det;
-    } else {
-      step[0] = -r[0];
-      step[1] = -r[1];
-    }
-    double alpha = 1.0, trial[2], r_trial[2], norm_trial = norm;
-    for (int k = 0; k < 30; ++k, alpha *= 0.5) {
-      trial[0] = u[0] + alpha * step[0];
-      trial[1] = u[1] + alpha * step[1];
-      Residual(c, B, v_free, trial, r_trial);
-      norm_trial = std::hypot(r_trial[0], r_trial[1]);
-      if (norm_trial < (1 - 1e-4 * alpha) * norm) break;
-    }
-    if (!(norm_trial < norm)) break;  // no progress: keep the best iterate
-    u[0] = trial[0];
-    u[1] = trial[1];
-    r[0] = r_trial[0];
-    r[1] = r_trial[1];
-    norm = norm_trial;
-    if (alpha * std::hypot(step[0], step[1]) <= 1e-15 * scale) break;
+template <int N>
+void AveragedVectorForce(const AveragedTable& table, const LawParameters& law,
+                         const double axis[N], const double u[N], double normal_force,
+                         double velocity_amplitude, double force[N]) {
+  double along = 0.0;
+  for (int i = 0; i < N; ++i) along += axis[i] * u[i];
+  double across_dir[N], across = 0.0;
+  for (int i = 0; i < N; ++i) {
+    across_dir[i] = u[i] - along * axis[i];
+    across += across_dir[i] * across_dir[i];
+  }
+  across = std::sqrt(across);
+  const double xi = std::sqrt(along * along + across * across) / velocity_amplitude;
+  const double angle = std::atan2(across, along);
+  double f_along, f_across;
+  table.Evaluate(xi, angle, &f_along, &f_across);
+  const double level = law.friction_coefficient * std::max(normal_force, 0.0);
+  for (int i = 0; i < N; ++i) {
+    const double across_unit = across > 0 ? across_dir[i] / across : 0.0;
+    force[i] = level * (f_along * axis[i] + f_across * across_unit) + law.viscous * u[i];
   }
 }
 
-}  // namespace
+template <int N>
+void SolveAveragedEndVelocity(const AveragedTable& table, const LawParameters& law,
+                              const double axis[N], double normal_force,
+                              double velocity_amplitude, const double B[N * N],
+                              const double v_free[N], double u[N]) {
+  auto norm = [](const double x[N]) {
+    double sum = 0.0;
+    for (int i = 0; i < N; ++i) sum += x[i] * x[i];
+    return std::sqrt(sum);
+  };
+  auto residual = [&](const double x[N], double r[N]) {  // R(u) = u + B F(u) - v_free
+    double f[N];
+    AveragedVectorForce<N>(table, law, axis, x, normal_force, velocity_amplitude, f);
+    for (int i = 0; i < N; ++i) {
+      r[i] = x[i] - v_free[i];
+      for (int j = 0; j < N; ++j) r[i] += B[N * i + j] * f[j];
+    }
+  };
+  const double scale = velocity_amplitude + norm(v_free);
+  const double tolerance = 1e-10 * scale;
+  double r[N];
+  residual(u, r);
+  double r_norm = norm(r);
+  for (int iter = 0; iter < 50 && r_norm > tolerance; ++iter) {
+    const double h = 1e-7 * (velocity_amplitude + norm(u));
+    double J[N * N];
+    for (int col = 0; col < N; ++col) {
+      double up[N], rp[N];
+      for (int i = 0; i < N; ++i) up[i] = u[i];
+      up[col] += h;
+      residual(up, rp);
+      for (int i = 0; i < N; ++i) J[N * i + col] = (rp[i] - r[i]) / h;
+    }
+    double step[N], minus_r[N];
+    for (int i = 0; i < N; ++i) minus_r[i] = -r[i];
+    if (!SolveLinear<N>(J, minus_r, 1e-300, step)) {
+      for (int i = 0; i < N; ++i) step[i] = minus_r[i];
+    }
+    double alpha = 1.0, trial[N], r_trial[N], norm_trial = r_norm;
+    for (int k = 0; k < 30; ++k, alpha *= 0.5) {
+      for (int i = 0; i < N; ++i) trial[i] = u[i] + alpha * step[i];
+      residual(trial, r_trial);
+      norm_trial = norm(r_trial);
+      if (norm_trial < (1 - 1e-4 * alpha) * r_norm) break;
+    }
+    if (!(norm_trial < r_norm)) break;  // no progress: keep the best iterate
+    for (int i = 0; i < N; ++i) {
+      u[i] = trial[i];
+      r[i] = r_trial[i];
+    }
+    r_norm = norm_trial;
+    if (alpha * norm(step) <= 1e-15 * scale) break;
+  }
+}
+
+template void AveragedVectorForce<2>(const AveragedTable&, const LawParameters&, const double*,
+                                     const double*, double, double, double*);
+template void AveragedVectorForce<3>(const AveragedTable&, const LawParameters&, const double*,
+                                     const double*, double, double, double*);
+template void SolveAveragedEndVelocity<2>(const AveragedTable&, const LawParameters&,
+                                          const double*, double, double, const double*,
+                                          const double*, double*);
+template void SolveAveragedEndVelocity<3>(const AveragedTable&, const LawParameters&,
+                                          const double*, double, double, const double*,
+                                          const double*, double*);
 
 void AveragedTable::Evaluate(double xi_value, double angle_value, double* f_along,
                              double* f_across) const {
@@ -128,6 +151,56 @@ void AveragedTable::Evaluate(double xi_value, double angle_value, double* f_alon
   };
   *f_along = blend(along);
   *f_across = blend(across);
+}
+
+bool ReadAveragedTable(const mjModel* m, int instance, const char* plugin,
+                       double velocity_amplitude, AveragedTable* table) {
+  AveragedTable& t = *table;
+  if (!ReadNumberList(m, instance, plugin, kTableXi, &t.xi) ||
+      !ReadNumberList(m, instance, plugin, kTableAngle, &t.angle) ||
+      !ReadNumberList(m, instance, plugin, kTableAlong, &t.along) ||
+      !ReadNumberList(m, instance, plugin, kTableAcross, &t.across)) {
+    return false;
+  }
+  if (velocity_amplitude > 0) {
+    const char* fix = "; generate the table with vibrofriction.averaged.build_table";
+    if (t.xi.size() < 2 || t.xi[0] != 0.0) {
+      ConfigError("%s: attribute 'table_xi' needs at least 2 increasing values starting at 0%s",
+                  plugin, fix);
+      return false;
+    }
+    if (t.angle.size() < 2 || t.angle[0] != 0.0 || std::fabs(t.angle.back() - kPi) > 1e-6) {
+      ConfigError("%s: attribute 'table_angle' needs at least 2 increasing values from 0 to pi "
+                  "(rad)%s", plugin, fix);
+      return false;
+    }
+    for (const std::vector<double>* grid : {&t.xi, &t.angle}) {
+      for (size_t k = 1; k < grid->size(); ++k) {
+        if (!((*grid)[k] > (*grid)[k - 1])) {
+          ConfigError("%s: attribute '%s' is not strictly increasing at index %d%s", plugin,
+                      grid == &t.xi ? kTableXi : kTableAngle, static_cast<int>(k), fix);
+          return false;
+        }
+      }
+    }
+    const size_t cells = t.xi.size() * t.angle.size();
+    if (t.along.size() != cells || t.across.size() != cells) {
+      ConfigError("%s: attributes 'table_along' and 'table_across' need %d values each "
+                  "(len(table_xi) x len(table_angle)), got %d and %d%s", plugin,
+                  static_cast<int>(cells), static_cast<int>(t.along.size()),
+                  static_cast<int>(t.across.size()), fix);
+      return false;
+    }
+    for (size_t k = 0; k < cells; ++k) {
+      if (std::fabs(t.along[k]) > 10 || std::fabs(t.across[k]) > 10) {
+        ConfigError("%s: table value %g at index %d is not a force over mu F_N (|f| <= 10)%s",
+                    plugin, std::fabs(t.along[k]) > 10 ? t.along[k] : t.across[k],
+                    static_cast<int>(k), fix);
+        return false;
+      }
+    }
+  }
+  return true;
 }
 
 bool AveragedConfig::FromModel(const mjModel* m, int instance, AveragedConfig* config,
@@ -156,51 +229,8 @@ bool AveragedConfig::FromModel(const mjModel* m, int instance, AveragedConfig* c
                   "must be >= 0 (m/s), the vibration velocity amplitude the table was made for");
   }
   if (!ReadBool(m, instance, kPlugin, kUseCtrl, false, &c.use_ctrl)) return false;
-  AveragedTable& t = c.table;
-  if (!ReadNumberList(m, instance, kPlugin, kTableXi, &t.xi) ||
-      !ReadNumberList(m, instance, kPlugin, kTableAngle, &t.angle) ||
-      !ReadNumberList(m, instance, kPlugin, kTableAlong, &t.along) ||
-      !ReadNumberList(m, instance, kPlugin, kTableAcross, &t.across)) {
-    return false;
-  }
-  if (c.velocity_amplitude > 0) {
-    const char* fix = "; generate the table with vibrofriction.averaged.build_table";
-    if (t.xi.size() < 2 || t.xi[0] != 0.0) {
-      ConfigError("%s: attribute 'table_xi' needs at least 2 increasing values starting at 0%s",
-                  kPlugin, fix);
-      return false;
-    }
-    if (t.angle.size() < 2 || t.angle[0] != 0.0 || std::fabs(t.angle.back() - kPi) > 1e-6) {
-      ConfigError("%s: attribute 'table_angle' needs at least 2 increasing values from 0 to pi "
-                  "(rad)%s", kPlugin, fix);
-      return false;
-    }
-    for (const std::vector<double>* grid : {&t.xi, &t.angle}) {
-      for (size_t k = 1; k < grid->size(); ++k) {
-        if (!((*grid)[k] > (*grid)[k - 1])) {
-          ConfigError("%s: attribute '%s' is not strictly increasing at index %d%s", kPlugin,
-                      grid == &t.xi ? kTableXi : kTableAngle, static_cast<int>(k), fix);
-          return false;
-        }
-      }
-    }
-    const size_t cells = t.xi.size() * t.angle.size();
-    if (t.along.size() != cells || t.across.size() != cells) {
-      ConfigError("%s: attributes 'table_along' and 'table_across' need %d values each "
-                  "(len(table_xi) x len(table_angle)), got %d and %d%s", kPlugin,
-                  static_cast<int>(cells), static_cast<int>(t.along.size()),
-                  static_cast<int>(t.across.size()), fix);
-      return false;
-    }
-    for (size_t k = 0; k < cells; ++k) {
-      if (std::fabs(t.along[k]) > 10 || std::fabs(t.across[k]) > 10) {
-        ConfigError("%s: table value %g at index %d is not a force over mu F_N (|f| <= 10)%s",
-                    kPlugin, std::fabs(t.along[k]) > 10 ? t.along[k] : t.across[k],
-                    static_cast<int>(k), fix);
-        return false;
-      }
-    }
-  } else if (c.use_ctrl) {
+  if (!ReadAveragedTable(m, instance, kPlugin, c.velocity_amplitude, &c.table)) return false;
+  if (c.velocity_amplitude == 0 && c.use_ctrl) {
     return Reject(kVelocityAmplitude, c.velocity_amplitude,
                   "must be > 0 when use_ctrl is true (ctrl scales it)");
   }
@@ -217,17 +247,9 @@ bool AveragedConfig::FromModel(const mjModel* m, int instance, AveragedConfig* c
 
 void AveragedFriction::Force(const double u[2], double normal_force, double velocity_amplitude,
                              double force[2]) const {
-  const double c = config_->axis_cos, s = config_->axis_sin;
-  const double along = c * u[0] + s * u[1];
-  const double across = -s * u[0] + c * u[1];
-  const double xi = std::hypot(along, across) / velocity_amplitude;
-  const double angle = std::atan2(std::fabs(across), along);
-  double f_along, f_across;
-  config_->table.Evaluate(xi, angle, &f_along, &f_across);
-  if (across < 0) f_across = -f_across;  // mirror symmetry about the vibration axis
-  const double level = config_->coulomb.friction_coefficient * std::max(normal_force, 0.0);
-  force[0] = level * (c * f_along - s * f_across) + config_->coulomb.viscous * u[0];
-  force[1] = level * (s * f_along + c * f_across) + config_->coulomb.viscous * u[1];
+  const double axis[2] = {config_->axis_cos, config_->axis_sin};
+  AveragedVectorForce<2>(config_->table, config_->coulomb, axis, u, normal_force,
+                         velocity_amplitude, force);
 }
 
 void AveragedFriction::Compute(const mjModel* m, mjData* d, int instance) {
@@ -250,9 +272,10 @@ void AveragedFriction::Compute(const mjModel* m, mjData* d, int instance) {
   ComputePlanarResponse(m, d, out, &scratch_, &response);
   double force[2];
   if (amplitude > 0) {
-    const SolveContext context{this, in.normal_force, amplitude};
+    const double axis[2] = {config_->axis_cos, config_->axis_sin};
     double u[2] = {v[0], v[1]};
-    SolveEndVelocity(context, response.B, response.v_free, u);
+    SolveAveragedEndVelocity<2>(config_->table, config_->coulomb, axis, in.normal_force,
+                                amplitude, response.B, response.v_free, u);
     Force(u, in.normal_force, amplitude, force);
   } else {
     PlanarStickSlipForce(config_->coulomb, in, v, response.v_free, response.B, force);

@@ -47,6 +47,30 @@ struct AveragedTable {
   void Evaluate(double xi_value, double angle_value, double* f_along, double* f_across) const;
 };
 
+// Reads and checks table_xi, table_angle, table_along, table_across (checked when
+// velocity_amplitude > 0); records the error naming `plugin` and returns false when invalid.
+bool ReadAveragedTable(const mjModel* m, int instance, const char* plugin,
+                       double velocity_amplitude, AveragedTable* table);
+
+// The averaged force (N) at the mean sliding velocity u of an isotropic law in N components,
+// the vibration along the unit vector `axis`: the table at xi = |u|/v_a and the angle of u from
+// the axis gives the parts along the axis and along u's part across it (rotational symmetry
+// about the axis), times mu F_N, plus sigma2 u. N = 2: the planar element; N = 3: the contact
+// element's two tangential directions and its spin times the torsion radius.
+template <int N>
+void AveragedVectorForce(const AveragedTable& table, const LawParameters& law,
+                         const double axis[N], const double u[N], double normal_force,
+                         double velocity_amplitude, double force[N]);
+
+// The end-of-step velocity u of u + B F(u) = v_free with F the averaged force (B = dt J M^-1 J',
+// row-major N x N): Newton with a forward-difference Jacobian and backtracking on |R| (the law
+// is monotone and Lipschitz, piecewise bilinear); u in: the start, out: the solution.
+template <int N>
+void SolveAveragedEndVelocity(const AveragedTable& table, const LawParameters& law,
+                              const double axis[N], double normal_force,
+                              double velocity_amplitude, const double B[N * N],
+                              const double v_free[N], double u[N]);
+
 struct AveragedConfig {
   // mu, static_ratio, stribeck_velocity, viscous: the no-vibration law (v_a = 0, or use_ctrl
   // with ctrl <= 0). With vibration the table already holds the averaged Stribeck curve.

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <utility>
 
+#include "averaged_friction.h"
 #include "element_config.h"
 #include "plugin_util.h"
 
@@ -21,6 +22,13 @@ const char* const kAttributes[] = {
     kLaw, kMu, kStiffness, kAlpha, kBreakaway, kSigma1, kViscous, kStaticRatio,
     kStribeckVelocity, kNormalModulation, kModulationFrequency, kModulationPhase, kSupport,
     kTorsionRadius};
+
+constexpr char kAveragedPlugin[] = "vibrofriction.contact_averaged";
+constexpr char kAxis[] = "axis";
+// The robot-timestep form: the table of vibrofriction.averaged over the generalized velocity.
+const char* const kAveragedAttributes[] = {
+    kMu, kViscous, kStaticRatio, kStribeckVelocity, kSupport, kTorsionRadius, kVelocityAmplitude,
+    kAxis, kTableXi, kTableAngle, kTableAlong, kTableAcross};
 
 // condim of the contacts MuJoCo makes between geoms g1 and g2 (an explicit <pair>, else the
 // geoms' priority, else the larger condim), or 0 when contype/conaffinity exclude the pair.
@@ -52,26 +60,76 @@ const char* BodyName(const mjModel* m, int body) {
 bool ContactConfig::FromModel(const mjModel* m, int instance, ContactConfig* config,
                               ReadScope scope) {
   ContactConfig c;
-  LawParameters& p = c.law;
-  if (!ReadLawParameters(m, instance, kPlugin, &p)) return false;
-  if (!ReadNumber(m, instance, kPlugin, kTorsionRadius, 0.0, &c.torsion_radius)) return false;
+  if (!ReadLawParameters(m, instance, kPlugin, &c.law)) return false;
+  if (!c.ReadPair(m, instance, kPlugin, scope)) return false;
+  *config = std::move(c);
+  return true;
+}
+
+bool ContactConfig::FromModelAveraged(const mjModel* m, int instance, ContactConfig* config,
+                                      ReadScope scope) {
+  ContactConfig c;
+  c.averaged = true;
+  LawParameters& p = c.law;  // the law without vibration: rigid Coulomb
+  p.law = Law::kCoulomb;
+  const char* plugin = kAveragedPlugin;
+  if (!ReadNumber(m, instance, plugin, kMu, 0.2, &p.friction_coefficient) ||
+      !ReadNumber(m, instance, plugin, kViscous, 0.0, &p.viscous) ||
+      !ReadNumber(m, instance, plugin, kStaticRatio, 1.0, &p.static_ratio) ||
+      !ReadNumber(m, instance, plugin, kStribeckVelocity, 1e-3, &p.stribeck_velocity) ||
+      !ReadNumber(m, instance, plugin, kVelocityAmplitude, 0.0, &c.velocity_amplitude)) {
+    return false;
+  }
+  if (p.friction_coefficient < 0) {
+    return RejectAttribute(plugin, kMu, p.friction_coefficient, "must be >= 0");
+  }
+  if (p.viscous < 0) return RejectAttribute(plugin, kViscous, p.viscous, "must be >= 0 (N s/m)");
+  if (p.static_ratio < 1) {
+    return RejectAttribute(plugin, kStaticRatio, p.static_ratio, "must be >= 1");
+  }
+  if (c.velocity_amplitude < 0) {
+    return RejectAttribute(plugin, kVelocityAmplitude, c.velocity_amplitude,
+                           "must be >= 0 (m/s), the vibration velocity amplitude the table was "
+                           "made for (0: no vibration)");
+  }
+  std::vector<double> axis = {1.0, 0.0, 0.0};
+  if (mj_getPluginConfig(m, instance, kAxis) && mj_getPluginConfig(m, instance, kAxis)[0]) {
+    if (!ReadNumberList(m, instance, plugin, kAxis, &axis)) return false;
+  }
+  const double length = axis.size() == 3 ? std::sqrt(axis[0] * axis[0] + axis[1] * axis[1] +
+                                                      axis[2] * axis[2]) : 0.0;
+  if (!(length > 0)) {
+    return ConfigError("%s: attribute 'axis' needs 3 numbers, not all 0: the vibration direction "
+                       "in the support body's frame (default \"1 0 0\")", plugin);
+  }
+  for (int i = 0; i < 3; ++i) c.axis_local[i] = axis[i] / length;
+  if (!ReadAveragedTable(m, instance, plugin, c.velocity_amplitude, &c.table)) return false;
+  if (!c.ReadPair(m, instance, plugin, scope)) return false;
+  *config = std::move(c);
+  return true;
+}
+
+bool ContactConfig::ReadPair(const mjModel* m, int instance, const char* plugin,
+                             ReadScope scope) {
+  ContactConfig& c = *this;
+  if (!ReadNumber(m, instance, plugin, kTorsionRadius, 0.0, &c.torsion_radius)) return false;
   if (c.torsion_radius < 0) {
-    return RejectAttribute(kPlugin, kTorsionRadius, c.torsion_radius,
+    return RejectAttribute(plugin, kTorsionRadius, c.torsion_radius,
                            "must be >= 0 (m; 0: from the contact points; a uniform-pressure disc "
                            "of radius R has 2R/3)");
   }
-  if (!CheckIntegrator(m, kPlugin)) return false;
+  if (!CheckIntegrator(m, plugin)) return false;
   const char* support = mj_getPluginConfig(m, instance, kSupport);
   if (!support || !support[0]) {
     return ConfigError("%s: attribute 'support' is required: the name of the body the part rests "
                        "on (a plate, a conveyor, a gripper finger; 'world' for the ground)",
-                       kPlugin);
+                       plugin);
   }
   if (scope == ReadScope::kAttributes) return true;
   c.support = mj_name2id(m, mjOBJ_BODY, support);
   if (c.support < 0) {
     return ConfigError("%s: support=\"%s\" names no body of the model; give the name of the "
-                       "body the part rests on", kPlugin, support);
+                       "body the part rests on", plugin, support);
   }
   int count = 0;
   for (int b = 0; b < m->nbody; ++b) {
@@ -82,11 +140,11 @@ bool ContactConfig::FromModel(const mjModel* m, int instance, ContactConfig* con
   if (count != 1) {
     return ConfigError("%s: the instance is attached to %d bodies; attach it to exactly one, the "
                        "sliding body: <body name=\"part\"> ... <plugin instance=\"..\"/></body>",
-                       kPlugin, count);
+                       plugin, count);
   }
   if (c.body == c.support) {
     return ConfigError("%s: support=\"%s\" is the body the element is attached to; name the body "
-                       "it rests on", kPlugin, support);
+                       "it rests on", plugin, support);
   }
   for (int g1 = 0; g1 < m->ngeom; ++g1) {
     if (m->geom_bodyid[g1] != c.body) continue;
@@ -101,7 +159,7 @@ bool ContactConfig::FromModel(const mjModel* m, int instance, ContactConfig* con
             "%s: the contacts between geom '%s' (body '%s') and geom '%s' (body '%s') have "
             "condim %d, so MuJoCo adds its own friction beside the element; set condim=\"1\" on "
             "one of them (and priority so it wins) or declare <pair geom1=.. geom2=.. "
-            "condim=\"1\"/>", kPlugin, n1 ? n1 : "(unnamed)", BodyName(m, c.body),
+            "condim=\"1\"/>", plugin, n1 ? n1 : "(unnamed)", BodyName(m, c.body),
             n2 ? n2 : "(unnamed)", BodyName(m, c.support), condim);
       }
       c.geoms.push_back(g1);
@@ -111,11 +169,10 @@ bool ContactConfig::FromModel(const mjModel* m, int instance, ContactConfig* con
   if (c.geoms.empty()) {
     return ConfigError("%s: no geom of body '%s' can touch a geom of its support '%s' "
                        "(contype/conaffinity exclude every pair); the element acts over their "
-                       "contacts", kPlugin, BodyName(m, c.body), BodyName(m, c.support));
+                       "contacts", plugin, BodyName(m, c.body), BodyName(m, c.support));
   }
   std::sort(c.geoms.begin(), c.geoms.end());
   c.geoms.erase(std::unique(c.geoms.begin(), c.geoms.end()), c.geoms.end());
-  *config = std::move(c);
   return true;
 }
 
@@ -147,13 +204,13 @@ void ContactFriction::SlidingVelocity(const mjModel* m, const mjData* d, const m
   u[3] = state[ContactState::kRadius] * mju_dot3(w, normal);
 }
 
-void ContactFriction::CoulombForce(const mjModel* m, mjData* d, const mjtNum* state,
-                                   const LawInput& in, const double u[4], double f[4]) {
+void ContactFriction::TangentResponse(const mjModel* m, mjData* d, const mjtNum* state,
+                                      mjtNum t1[3], mjtNum t2[3], double B[9]) {
   const int nv = m->nv;
   const mjtNum* normal = state + ContactState::kNormal;
   const double rho = state[ContactState::kRadius];
   // Tangent directions t1, t2 (any orthonormal pair perpendicular to n).
-  mjtNum t1[3] = {0, 0, 0}, t2[3];
+  mju_zero3(t1);
   t1[std::fabs(normal[0]) < 0.9 ? 0 : 1] = 1.0;
   const double along = mju_dot3(t1, normal);
   for (int i = 0; i < 3; ++i) t1[i] -= along * normal[i];
@@ -174,19 +231,53 @@ void ContactFriction::CoulombForce(const mjModel* m, mjData* d, const mjtNum* st
   }
   mj_solveM(m, d, X, J, 3);  // M^-1 J' (the factor of M is this step's)
   const double dt = m->opt.timestep;
-  double B[9];
   for (int r = 0; r < 3; ++r) {
     for (int c = 0; c < 3; ++c) B[3 * r + c] = dt * mju_dot(J + r * nv, X + c * nv, nv);
   }
+}
+
+void ContactFriction::ImplicitForce(const mjModel* m, mjData* d, const mjtNum* state,
+                                    const LawInput& in, double velocity_amplitude,
+                                    const double u[4], double f[4]) {
+  mjtNum t1[3], t2[3];
+  double B[9];
+  TangentResponse(m, d, state, t1, t2, B);
+  const mjtNum* t[2] = {t1, t2};
+  const double dt = m->opt.timestep;
   const mjtNum* other = state + ContactState::kOtherAcceleration;
   double ahead[4];  // u after this step without the element's force (estimate)
   for (int i = 0; i < 4; ++i) ahead[i] = u[i] + dt * other[i];
-  const double v[3] = {mju_dot3(u, t[0]), mju_dot3(u, t[1]), u[3]};
-  const double v_free[3] = {mju_dot3(ahead, t[0]), mju_dot3(ahead, t[1]), ahead[3]};
+  const double v[3] = {mju_dot3(u, t1), mju_dot3(u, t2), u[3]};
+  const double v_free[3] = {mju_dot3(ahead, t1), mju_dot3(ahead, t2), ahead[3]};
   double f3[3];
-  VectorStickSlipForce<3>(config_->law, in, v, v_free, B, f3);
+  double axis3[3] = {0, 0, 0};
+  bool vibrating = velocity_amplitude > 0;
+  if (vibrating) {
+    // The vibration direction in the tangent plane, in (t1, t2, spin) components.
+    mjtNum axis[3];
+    mju_mulMatVec3(axis, d->xmat + 9 * config_->support, config_->axis_local);
+    axis3[0] = mju_dot3(axis, t1);
+    axis3[1] = mju_dot3(axis, t2);
+    const double length = std::hypot(axis3[0], axis3[1]);
+    vibrating = length > 1e-6;  // a vibration along the normal slides nothing
+    if (vibrating) {
+      axis3[0] /= length;
+      axis3[1] /= length;
+    }
+  }
+  if (vibrating) {
+    double end[3] = {v[0], v[1], v[2]};
+    SolveAveragedEndVelocity<3>(config_->table, config_->law, axis3, in.normal_force,
+                                velocity_amplitude, B, v_free, end);
+    AveragedVectorForce<3>(config_->table, config_->law, axis3, end, in.normal_force,
+                           velocity_amplitude, f3);
+  } else {
+    VectorStickSlipForce<3>(config_->law, in, v, v_free, B, f3);
+  }
   double change[3];  // B f3: the change of (v_t . t1, v_t . t2, rho w_n) the force causes
-  for (int r = 0; r < 3; ++r) change[r] = B[3 * r] * f3[0] + B[3 * r + 1] * f3[1] + B[3 * r + 2] * f3[2];
+  for (int r = 0; r < 3; ++r) {
+    change[r] = B[3 * r] * f3[0] + B[3 * r + 1] * f3[1] + B[3 * r + 2] * f3[2];
+  }
   for (int i = 0; i < 3; ++i) {
     f[i] = f3[0] * t[0][i] + f3[1] * t[1][i];
     response_[i] = change[0] * t[0][i] + change[1] * t[1][i];
@@ -213,8 +304,8 @@ void ContactFriction::Compute(const mjModel* m, mjData* d, int instance) {
   if (HasDeflection(config_->law.law)) {
     const double zeta[4] = {state[0], state[1], state[2], rho * state[ContactState::kTwist]};
     VectorStateForce<4>(config_->law, in, u, zeta, f);
-  } else {
-    CoulombForce(m, d, state, in, u, f);
+  } else {  // coulomb, or the averaged table
+    ImplicitForce(m, d, state, in, config_->averaged ? config_->velocity_amplitude : 0.0, u, f);
     mju_copy(u_start_, u, 4);
     coulomb_applied_ = true;
   }
@@ -332,19 +423,21 @@ struct ContactSensorConfig {
   int element = -1;  // plugin instance of the contact element
 
   static bool FromModel(const mjModel* m, int instance, ContactSensorConfig* config,
-                        ReadScope scope) {
+                        ReadScope /*scope*/) {
     const char* name = mj_getPluginConfig(m, instance, kBody);
     if (name == nullptr || name[0] == '\0') {
       return ConfigError("%s: attribute 'body' is missing; name the body a vibrofriction.contact "
                          "element is attached to", kSensorPlugin);
     }
-    if (scope == ReadScope::kAttributes) return true;
+    // Body names and body_plugin are set while compiling: scope does not matter.
     const int body = mj_name2id(m, mjOBJ_BODY, name);
     const int element = body >= 0 ? m->body_plugin[body] : -1;
     const mjpPlugin* plugin = element >= 0 ? mjp_getPluginAtSlot(m->plugin[element]) : nullptr;
-    if (!plugin || std::strcmp(plugin->name, ContactFriction::kName) != 0) {
-      return ConfigError("%s: body=\"%s\" has no vibrofriction.contact element; name the body "
-                         "whose <plugin instance=\"..\"/> is one", kSensorPlugin, name);
+    if (!plugin || (std::strcmp(plugin->name, ContactFriction::kName) != 0 &&
+                    std::strcmp(plugin->name, kAveragedPlugin) != 0)) {
+      return ConfigError("%s: body=\"%s\" has no vibrofriction.contact or contact_averaged "
+                         "element; name the body whose <plugin instance=\"..\"/> is one",
+                         kSensorPlugin, name);
     }
     config->element = element;
     return true;
@@ -391,6 +484,14 @@ class ContactSensor {
 
 void RegisterContactPlugins() {
   ContactFriction::RegisterPlugin();
+  mjpPlugin plugin;  // vibrofriction.contact_averaged: the same element with the averaged law
+  mjp_defaultPlugin(&plugin);
+  plugin.name = kAveragedPlugin;
+  plugin.capabilityflags |= mjPLUGIN_PASSIVE;
+  plugin.nattribute = sizeof(kAveragedAttributes) / sizeof(kAveragedAttributes[0]);
+  plugin.attributes = kAveragedAttributes;
+  SetPluginCallbacks<ContactFriction, &ContactConfig::FromModelAveraged>(&plugin);
+  mjp_registerPlugin(&plugin);
   ContactSensor::RegisterPlugin();
 }
 

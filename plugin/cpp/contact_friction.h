@@ -31,20 +31,32 @@
 
 #include <mujoco/mujoco.h>
 
+#include "averaged_friction.h"
 #include "friction_law.h"
 #include "plugin_util.h"
 
 namespace vibrofriction {
 
 struct ContactConfig {
-  LawParameters law;
+  LawParameters law;           // averaged: rigid Coulomb, the law without vibration
   int body = -1;               // the sliding body (its <plugin instance=.../>)
   int support = -1;            // config `support`
   double torsion_radius = 0;   // m; 0: from the contact points
   std::vector<int> geoms;      // geoms of body and support that can touch each other (sorted)
+  // vibrofriction.contact_averaged: the averaged law's table, for this vibration
+  bool averaged = false;
+  AveragedTable table;
+  double velocity_amplitude = 0;            // v_a (m/s) the table was made for; 0: none
+  double axis_local[3] = {1.0, 0.0, 0.0};   // vibration direction in the support's frame
 
   static bool FromModel(const mjModel* m, int instance, ContactConfig* config,
                         ReadScope scope = ReadScope::kAll);
+  static bool FromModelAveraged(const mjModel* m, int instance, ContactConfig* config,
+                                ReadScope scope = ReadScope::kAll);
+
+ private:
+  // support, torsion_radius, the body, and the geoms' condim (shared by both plugins).
+  bool ReadPair(const mjModel* m, int instance, const char* plugin, ReadScope scope);
 };
 
 // plugin_state layout of one instance.
@@ -80,11 +92,15 @@ class ContactFriction {
   // The generalized velocity u (4) at point p about normal n, with rho, for the current qvel;
   // keeps the relative Jacobians (translation, rotation: 3 x nv each) in jacobian_.
   void SlidingVelocity(const mjModel* m, const mjData* d, const mjtNum* state, double u[4]);
-  // law coulomb: the stick/slip force (4, as u) over this step, from the response of u to it
-  // (B = dt J M^-1 J' in the tangent plane and the spin) and the other forces' acceleration of
-  // the last step (one step late, like the contact's normal force).
-  void CoulombForce(const mjModel* m, mjData* d, const mjtNum* state, const LawInput& in,
-                    const double u[4], double f[4]);
+  // The response of (v_t . t1, v_t . t2, rho w_n) to the force over this step: B = dt J M^-1 J'
+  // (3 x 3), with the tangent directions t1, t2 it chose.
+  void TangentResponse(const mjModel* m, mjData* d, const mjtNum* state, mjtNum t1[3],
+                       mjtNum t2[3], double B[9]);
+  // law coulomb (velocity_amplitude = 0) or the averaged table: the force (4, as u) from the
+  // end-of-step velocity, solved with B and the other forces' acceleration of the last step
+  // (one step late, like the contact's normal force).
+  void ImplicitForce(const mjModel* m, mjData* d, const mjtNum* state, const LawInput& in,
+                     double velocity_amplitude, const double u[4], double f[4]);
 
   CachedConfig<ContactConfig> config_;
   std::vector<mjtNum> jacobian_;  // relative translation and rotation Jacobians (6 x nv)

@@ -30,6 +30,12 @@ inline constexpr char kStribeckVelocity[] = "stribeck_velocity";
 inline constexpr char kNormalModulation[] = "normal_modulation";
 inline constexpr char kModulationFrequency[] = "modulation_frequency";
 inline constexpr char kModulationPhase[] = "modulation_phase";
+// the averaged elements' vibration and table (vibrofriction.averaged, .contact_averaged)
+inline constexpr char kVelocityAmplitude[] = "velocity_amplitude";
+inline constexpr char kTableXi[] = "table_xi";
+inline constexpr char kTableAngle[] = "table_angle";
+inline constexpr char kTableAlong[] = "table_along";
+inline constexpr char kTableAcross[] = "table_across";
 }  // namespace keys
 
 // Records the error "<plugin>: attribute '<attr>'="<value>" <rule>" and returns false.

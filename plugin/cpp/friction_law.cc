@@ -511,41 +511,6 @@ void PlanarImplicitStateForce(const LawParameters& p, const LawInput& in, const 
   force[1] = (A[0] * rhs[1] - A[2] * rhs[0]) / det;
 }
 
-namespace {
-
-// Solves A x = b (N x N, row-major) by Gaussian elimination with partial pivoting; false when a
-// pivot is below `tiny` (singular to working precision at the scale of A).
-template <int N>
-bool SolveSmall(const double A[N * N], const double b[N], double tiny, double x[N]) {
-  double a[N][N + 1];
-  for (int i = 0; i < N; ++i) {
-    for (int j = 0; j < N; ++j) a[i][j] = A[N * i + j];
-    a[i][N] = b[i];
-  }
-  for (int col = 0; col < N; ++col) {
-    int pivot = col;
-    for (int r = col + 1; r < N; ++r) {
-      if (std::fabs(a[r][col]) > std::fabs(a[pivot][col])) pivot = r;
-    }
-    if (!(std::fabs(a[pivot][col]) > tiny)) return false;
-    if (pivot != col) {
-      for (int j = 0; j <= N; ++j) std::swap(a[pivot][j], a[col][j]);
-    }
-    for (int r = col + 1; r < N; ++r) {
-      const double factor = a[r][col] / a[col][col];
-      for (int j = col; j <= N; ++j) a[r][j] -= factor * a[col][j];
-    }
-  }
-  for (int i = N - 1; i >= 0; --i) {
-    double sum = a[i][N];
-    for (int j = i + 1; j < N; ++j) sum -= a[i][j] * x[j];
-    x[i] = sum / a[i][i];
-  }
-  return true;
-}
-
-}  // namespace
-
 template <int N>
 void VectorStickSlipForce(const LawParameters& p, const LawInput& in, const double v[N],
                           const double v_free[N], const double B[N * N], double force[N]) {
@@ -566,7 +531,7 @@ void VectorStickSlipForce(const LawParameters& p, const LawInput& in, const doub
     invertible = true;
     for (int i = 0; i < N; ++i) invertible = invertible && B[N * i + i] > 1e-12 * trace;
   } else {
-    invertible = SolveSmall<N>(B, v_free, 1e-12 * trace, stick);
+    invertible = SolveLinear<N>(B, v_free, 1e-12 * trace, stick);
     if (!invertible) per_axis();
   }
   const double stick_norm = Norm<N>(stick);
@@ -590,7 +555,7 @@ void VectorStickSlipForce(const LawParameters& p, const LawInput& in, const doub
     for (int i = 0; i < N; ++i) {
       for (int j = 0; j < N; ++j) A[N * i + j] = (i == j) + lambda * B[N * i + j];
     }
-    SolveSmall<N>(A, v_free, 0.0, u);  // I + lambda B: B is positive semi-definite
+    SolveLinear<N>(A, v_free, 0.0, u);  // I + lambda B: B is positive semi-definite
   };
   double dir[N];
   for (int i = 0; i < N; ++i) dir[i] = stick[i] / stick_norm;

@@ -17,6 +17,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 namespace vibrofriction {
 
@@ -183,6 +184,37 @@ void AdvanceVectorDeflection(const LawParameters& p, const LawInput& in, const d
 template <int N>
 void VectorStateForce(const LawParameters& p, const LawInput& in, const double v[N],
                       const double z[N], double force[N]);
+
+// Solves A x = b (N x N, row-major) by Gaussian elimination with partial pivoting; false when a
+// pivot is below `tiny` (singular to working precision at the scale of A).
+template <int N>
+bool SolveLinear(const double A[N * N], const double b[N], double tiny, double x[N]) {
+  double a[N][N + 1];
+  for (int i = 0; i < N; ++i) {
+    for (int j = 0; j < N; ++j) a[i][j] = A[N * i + j];
+    a[i][N] = b[i];
+  }
+  for (int col = 0; col < N; ++col) {
+    int pivot = col;
+    for (int r = col + 1; r < N; ++r) {
+      if (std::fabs(a[r][col]) > std::fabs(a[pivot][col])) pivot = r;
+    }
+    if (!(std::fabs(a[pivot][col]) > tiny)) return false;
+    if (pivot != col) {
+      for (int j = 0; j <= N; ++j) std::swap(a[pivot][j], a[col][j]);
+    }
+    for (int r = col + 1; r < N; ++r) {
+      const double factor = a[r][col] / a[col][col];
+      for (int j = col; j <= N; ++j) a[r][j] -= factor * a[col][j];
+    }
+  }
+  for (int i = N - 1; i >= 0; --i) {
+    double sum = a[i][N];
+    for (int j = i + 1; j < N; ++j) sum -= a[i][j] * x[j];
+    x[i] = sum / a[i][i];
+  }
+  return true;
+}
 
 // The rigid Coulomb stick/slip solve above for an N-vector (N = 2: PlanarStickSlipForce; N = 3:
 // the contact element's two tangential directions and its spin times the torsion radius),

@@ -105,6 +105,21 @@ class AveragedTable:
             config["use_ctrl"] = "true"
         return config
 
+    def contact_config(self, support: str, *,
+                       axis: tuple[float, float, float] = (1.0, 0.0, 0.0),
+                       torsion_radius_m: float | None = None) -> dict[str, str]:
+        """Config of a vibrofriction.contact_averaged instance: the drop-in element for a free
+        body on ``support`` vibrating along ``axis`` (the support body's frame). The normal
+        load is MuJoCo's contact force, so the table's normal_force_N only shaped the table."""
+        config = self.config()
+        for key in ("normal", "axis_angle"):
+            config.pop(key)
+        config["support"] = support
+        config["axis"] = " ".join(repr(float(a)) for a in axis)
+        if torsion_radius_m is not None:
+            config["torsion_radius"] = repr(float(torsion_radius_m))
+        return config
+
     def mjcf_instance(self, name: str, **kwargs) -> str:
         """<instance> element text for an MJCF <extension><plugin plugin="vibrofriction.averaged">."""
         lines = [f'<instance name="{name}">']

@@ -24,7 +24,7 @@ ALL_LAWS = ("coulomb", "dahl", "dupont", "lugre")
 # The elements whose config takes friction keys (vibrofriction.<name>) and the groups of them a
 # row names: every one; those that resolve the law in time (the averaged element's table holds
 # the law's shape); the 1D element alone (effects with no isotropic meaning in the plane).
-ALL_ELEMENTS = ("friction", "planar", "contact", "averaged")
+ALL_ELEMENTS = ("friction", "planar", "contact", "averaged", "contact_averaged")
 RESOLVING_ELEMENTS = ("friction", "planar", "contact")
 LINE_ELEMENT_ONLY = ("friction",)
 PAPER_CONTACT_STIFFNESS_N_PER_M = 80.0e6
