@@ -190,7 +190,7 @@ void ContactFriction::SlidingVelocity(const mjModel* m, const mjData* d, const m
   const mjtNum* normal = state + ContactState::kNormal;
   const int bodies[2] = {config_->body, config_->support};
   for (int k = 0; k < 2; ++k) {
-    if (bodies[k] <= 0) continue;  // the world does not move
+    if (m->body_weldid[bodies[k]] == 0) continue;  // the world, or welded to it: no motion
     mj_jac(m, d, scratch_p, scratch_r, point, bodies[k]);
     const double sign = k == 0 ? 1.0 : -1.0;  // body relative to support
     mju_addToScl(jacp, scratch_p, sign, 3 * nv);
@@ -316,16 +316,20 @@ void ContactFriction::Compute(const mjModel* m, mjData* d, int instance) {
     force[i] = -(f[i] - along * normal[i]);
     torque[i] = -rho * f[3] * normal[i];
   }
-  const mjtNum* point = state + ContactState::kPoint;
   mju_copy3(force_, force);
   moment_ = -rho * f[3];
   speed_ = in.velocity;
-  mj_applyFT(m, d, force, torque, point, config_->body, d->qfrc_passive);
-  if (config_->support > 0) {
-    mju_scl3(force, force, -1);
-    mju_scl3(torque, torque, -1);
-    mj_applyFT(m, d, force, torque, point, config_->support, d->qfrc_passive);
-  }
+  // The force and moment on the body at p and their opposites on the support: through the
+  // relative Jacobians at p (body - support) that SlidingVelocity kept, in one product each.
+  const int nv = m->nv;
+  const mjtNum* jacp = jacobian_.data();
+  const mjtNum* jacr = jacp + 3 * nv;
+  rows_.resize(std::max(rows_.size(), static_cast<std::size_t>(nv)));
+  mjtNum* generalized = rows_.data();  // scratch, nv (J and M^-1 J' are no longer needed)
+  mju_mulMatTVec(generalized, jacp, force, 3, nv);
+  mju_addTo(d->qfrc_passive, generalized, nv);
+  mju_mulMatTVec(generalized, jacr, torque, 3, nv);
+  mju_addTo(d->qfrc_passive, generalized, nv);
 }
 
 void ContactFriction::Advance(const mjModel* m, mjData* d, int instance) {
