@@ -13,21 +13,28 @@
 # library links that libmujoco and reads its structs. auditwheel names the manylinux tag from the
 # symbols the library uses; libmujoco is left out of the wheel (the mujoco wheel provides it).
 set -euo pipefail
-cd "$(dirname "$0")/.."
 
 mujoco_version=""
 run_tests=0
 out_dir="dist"
+need_value() {
+  if [[ $# -lt 2 || -z "$2" ]]; then
+    echo "build_wheel.sh: $1 needs a value (see --help)" >&2; exit 2
+  fi
+}
+caller_dir="$(pwd)"
 while [[ $# -gt 0 ]]; do
   case "$1" in
-    --mujoco) mujoco_version="$2"; shift 2 ;;
+    --mujoco) need_value "$@"; mujoco_version="$2"; shift 2 ;;
     --test) run_tests=1; shift ;;
-    --out) out_dir="$2"; shift 2 ;;
+    --out) need_value "$@"; out_dir="$2"; shift 2 ;;
     -h|--help) sed -n '2,16p' "$0"; exit 0 ;;
     *) echo "build_wheel.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
 
+[[ "$out_dir" = /* ]] || out_dir="$caller_dir/$out_dir"  # relative to where it was called
+cd "$(dirname "$0")/.."
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 constraint="$work/constraint.txt"
@@ -44,16 +51,28 @@ echo "== wheel (mujoco ${mujoco_version:-newest in range})"
 # From the source files alone (tracked or not ignored): a developer's in-place library copies and
 # build folders stay out of the wheel.
 mkdir "$work/src"
-git ls-files -z --cached --others --exclude-standard | tar -c --null -T - | tar -x -C "$work/src"
-# The constraint reaches pip's isolated build environment through the environment variable.
-PIP_CONSTRAINT="$constraint" "$work/tools/bin/pip" wheel -q --no-deps -w "$work/raw" "$work/src"
+git ls-files -z --cached --others --exclude-standard \
+  | while IFS= read -r -d '' f; do [[ -e "$f" ]] && printf '%s\0' "$f"; done \
+  | tar -c --null -T - | tar -x -C "$work/src"  # (tracked files deleted here are left out)
+# The constraint must reach pip's isolated build environment: PIP_BUILD_CONSTRAINT (pip >= 25.3;
+# pip 26.2 stopped applying PIP_CONSTRAINT there), PIP_CONSTRAINT for older pip.
+PIP_CONSTRAINT="$constraint" PIP_BUILD_CONSTRAINT="$constraint" \
+  "$work/tools/bin/pip" wheel -q --no-deps -w "$work/raw" "$work/src"
 PATH="$work/tools/bin:$PATH" "$work/tools/bin/auditwheel" repair -w "$work/repaired" \
   --exclude 'libmujoco.so*' "$work"/raw/*.whl
 wheel="$(ls "$work"/repaired/*.whl)"
+if [[ -n "$mujoco_version" ]]; then  # the build used the MuJoCo asked for (its pin says so)
+  pin="$(unzip -p "$wheel" '*.dist-info/METADATA' | sed -n 's/^Requires-Dist: mujoco==\([^ ;]*\)$/\1/p')"
+  if [[ "$pin" != "$mujoco_version" ]]; then
+    echo "build_wheel.sh: the wheel was built against mujoco '$pin', not $mujoco_version: this pip" \
+         "does not pass the constraint to its build environment" >&2
+    exit 1
+  fi
+fi
 
 echo "== install the wheel alone (--only-binary: nothing is compiled) into a fresh venv"
 python3 -m venv "$work/user"
-PIP_CONSTRAINT="$constraint" "$work/user/bin/pip" install -q --only-binary=:all: "$wheel[test,dask]"
+PIP_CONSTRAINT="$constraint" PIP_BUILD_CONSTRAINT="$constraint" "$work/user/bin/pip" install -q --only-binary=:all: "$wheel[test,dask]"
 "$work/user/bin/python" - <<'EOF'
 import glob, os, re, sys
 from importlib import metadata

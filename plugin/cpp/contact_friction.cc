@@ -146,6 +146,7 @@ bool ContactConfig::ReadPair(const mjModel* m, int instance, const char* plugin,
     return ConfigError("%s: support=\"%s\" is the body the element is attached to; name the body "
                        "it rests on", plugin, support);
   }
+  int touching = 0;  // geom pairs of body and support that make contacts
   for (int g1 = 0; g1 < m->ngeom; ++g1) {
     if (m->geom_bodyid[g1] != c.body) continue;
     for (int g2 = 0; g2 < m->ngeom; ++g2) {
@@ -162,17 +163,14 @@ bool ContactConfig::ReadPair(const mjModel* m, int instance, const char* plugin,
             "condim=\"1\"/>", plugin, n1 ? n1 : "(unnamed)", BodyName(m, c.body),
             n2 ? n2 : "(unnamed)", BodyName(m, c.support), condim);
       }
-      c.geoms.push_back(g1);
-      c.geoms.push_back(g2);
+      ++touching;
     }
   }
-  if (c.geoms.empty()) {
+  if (touching == 0) {
     return ConfigError("%s: no geom of body '%s' can touch a geom of its support '%s' "
                        "(contype/conaffinity exclude every pair); the element acts over their "
                        "contacts", plugin, BodyName(m, c.body), BodyName(m, c.support));
   }
-  std::sort(c.geoms.begin(), c.geoms.end());
-  c.geoms.erase(std::unique(c.geoms.begin(), c.geoms.end()), c.geoms.end());
   return true;
 }
 
@@ -271,8 +269,12 @@ void ContactFriction::ImplicitForce(const mjModel* m, mjData* d, const mjtNum* s
                                 velocity_amplitude, B, v_free, end);
     AveragedVectorForce<3>(config_->table, config_->law, axis3, end, in.normal_force,
                            velocity_amplitude, f3);
-  } else {
+  } else if (state[ContactState::kRadius] > 0) {
     VectorStickSlipForce<3>(config_->law, in, v, v_free, B, f3);
+  } else {  // a point contact: no spin friction, the tangential block alone
+    const double B2[4] = {B[0], B[1], B[3], B[4]};
+    VectorStickSlipForce<2>(config_->law, in, v, v_free, B2, f3);
+    f3[2] = 0.0;
   }
   double change[3];  // B f3: the change of (v_t . t1, v_t . t2, rho w_n) the force causes
   for (int r = 0; r < 3; ++r) {
@@ -372,6 +374,9 @@ void ContactFriction::Advance(const mjModel* m, mjData* d, int instance) {
       rho += fn * mju_norm3(arm);
     });
     rho /= total;
+    // One contact point (a sphere, a vertex) has no arm: its rounding noise (1e-20 m) would
+    // make a spin axis without response. Below a picometre is a point.
+    if (rho < 1e-12) rho = 0.0;
   }
   state[ContactState::kNormalForce] = total;
   mju_copy3(state + ContactState::kPoint, point);

@@ -42,7 +42,6 @@ struct ContactConfig {
   int body = -1;               // the sliding body (its <plugin instance=.../>)
   int support = -1;            // config `support`
   double torsion_radius = 0;   // m; 0: from the contact points
-  std::vector<int> geoms;      // geoms of body and support that can touch each other (sorted)
   // vibrofriction.contact_averaged: the averaged law's table, for this vibration
   bool averaged = false;
   AveragedTable table;
@@ -113,7 +112,7 @@ class ContactFriction {
   // What the last Compute applied to the body (zero without contact), for the sensor.
   double force_[3] = {0, 0, 0};
   double moment_ = 0;
-  double speed_ = 0;  // 4 x 3 nv: translation and rotation of body and support
+  double speed_ = 0;
 };
 
 // Registers vibrofriction.contact and vibrofriction.contact_sensor (config `body`: the body the

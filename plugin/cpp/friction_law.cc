@@ -511,6 +511,20 @@ void PlanarImplicitStateForce(const LawParameters& p, const LawInput& in, const 
   force[1] = (A[0] * rhs[1] - A[2] * rhs[0]) / det;
 }
 
+namespace {
+
+template <int N>
+double Determinant(const double B[N * N]);
+template <>
+double Determinant<2>(const double B[4]) { return B[0] * B[3] - B[1] * B[2]; }
+template <>
+double Determinant<3>(const double B[9]) {
+  return B[0] * (B[4] * B[8] - B[5] * B[7]) - B[1] * (B[3] * B[8] - B[5] * B[6]) +
+         B[2] * (B[3] * B[7] - B[4] * B[6]);
+}
+
+}  // namespace
+
 template <int N>
 void VectorStickSlipForce(const LawParameters& p, const LawInput& in, const double v[N],
                           const double v_free[N], const double B[N * N], double force[N]) {
@@ -522,18 +536,16 @@ void VectorStickSlipForce(const LawParameters& p, const LawInput& in, const doub
     trace += B[N * i + i];
     for (int j = 0; j < N; ++j) diagonal = diagonal && (i == j || B[N * i + j] == 0);
   }
+  // An axis whose response is below 1e-12 of the trace has none: no force can move it.
   auto per_axis = [&] {  // decoupled axes (as the 1D element divides), or no response on one
-    for (int i = 0; i < N; ++i) stick[i] = B[N * i + i] > 0 ? v_free[i] / B[N * i + i] : 0.0;
+    for (int i = 0; i < N; ++i) {
+      stick[i] = B[N * i + i] > 1e-12 * trace ? v_free[i] / B[N * i + i] : 0.0;
+    }
   };
-  bool invertible = false;
-  if (diagonal) {
-    per_axis();
-    invertible = true;
-    for (int i = 0; i < N; ++i) invertible = invertible && B[N * i + i] > 1e-12 * trace;
-  } else {
-    invertible = SolveLinear<N>(B, v_free, 1e-12 * trace, stick);
-    if (!invertible) per_axis();
-  }
+  double scale = 1.0;  // trace^N: det > 1e-12 trace^N is invertible to working precision
+  for (int i = 0; i < N; ++i) scale *= trace;
+  const bool invertible = Determinant<N>(B) > 1e-12 * scale;
+  if (diagonal || !invertible || !SolveLinear<N>(B, v_free, 0.0, stick)) per_axis();
   const double stick_norm = Norm<N>(stick);
   LawInput at_rest = in;
   at_rest.velocity = 0.0;
@@ -555,7 +567,10 @@ void VectorStickSlipForce(const LawParameters& p, const LawInput& in, const doub
     for (int i = 0; i < N; ++i) {
       for (int j = 0; j < N; ++j) A[N * i + j] = (i == j) + lambda * B[N * i + j];
     }
-    SolveLinear<N>(A, v_free, 0.0, u);  // I + lambda B: B is positive semi-definite
+    // I + lambda B with B positive semi-definite: invertible
+    if (!SolveLinear<N>(A, v_free, 0.0, u)) {
+      for (int i = 0; i < N; ++i) u[i] = v_free[i];
+    }
   };
   double dir[N];
   for (int i = 0; i < N; ++i) dir[i] = stick[i] / stick_norm;
@@ -586,6 +601,8 @@ void VectorStickSlipForce(const LawParameters& p, const LawInput& in, const doub
   for (int i = 0; i < N; ++i) force[i] = kinetic * dir[i] + p.viscous * v[i];
 }
 
+template void VectorStickSlipForce<2>(const LawParameters&, const LawInput&, const double*,
+                                      const double*, const double*, double*);
 template void VectorStickSlipForce<3>(const LawParameters&, const LawInput&, const double*,
                                       const double*, const double*, double*);
 

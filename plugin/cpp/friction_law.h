@@ -173,8 +173,8 @@ void PlanarKinematicCoulombForce(const LawParameters& p, const LawInput& in, con
                                  double force[2]);
 
 // The same state laws for an N-vector (N = 2: the functions above; N = 4: the contact element's
-// tangential velocity in world coordinates and its spin times the torsion radius). Instantiated
-// for N = 2 and 4 in friction_law.cc.
+// tangential velocity in world coordinates and its spin times the torsion radius). Explicitly
+// instantiated for N = 4; N = 2 is reached through the Planar* functions above.
 template <int N>
 void VectorDeflectionRate(const LawParameters& p, const LawInput& in, const double v[N],
                           const double z[N], double rate[N]);
@@ -218,7 +218,8 @@ bool SolveLinear(const double A[N * N], const double b[N], double tiny, double x
 
 // The rigid Coulomb stick/slip solve above for an N-vector (N = 2: PlanarStickSlipForce; N = 3:
 // the contact element's two tangential directions and its spin times the torsion radius),
-// B row-major N x N. Instantiated for N = 2 and 3.
+// B row-major N x N. Explicitly instantiated for N = 2 and 3 (N = 2 also through
+// PlanarStickSlipForce).
 template <int N>
 void VectorStickSlipForce(const LawParameters& p, const LawInput& in, const double v[N],
                           const double v_free[N], const double B[N * N], double force[N]);

@@ -30,7 +30,8 @@ def version_mismatch(compiled: str, runtime: str) -> str | None:
     return (f"vibrofriction was compiled against MuJoCo {compiled} but MuJoCo {runtime} is "
             f"installed; install mujoco=={compiled}, or rebuild vibrofriction against "
             f"{runtime} (supported: {SUPPORTED_MUJOCO}): echo mujoco=={runtime} > c.txt && "
-            "PIP_CONSTRAINT=c.txt pip install --force-reinstall --no-cache-dir .")
+            "PIP_CONSTRAINT=c.txt PIP_BUILD_CONSTRAINT=c.txt pip install --force-reinstall "
+            "--no-cache-dir .")
 
 
 def register() -> None:
