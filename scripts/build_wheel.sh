@@ -5,9 +5,10 @@
 # import first: MuJoCo >= 4.0 loads the plugins from the `mujoco.plugins` entry point; older
 # versions need `import vibrofriction`, and the check says so).
 #
-#   scripts/build_wheel.sh                   # the newest supported MuJoCo; wheel into dist/
+#   scripts/build_wheel.sh                   # the newest supported MuJoCo; wheel into ./dist
 #   scripts/build_wheel.sh --mujoco 3.17.0   # build against (and pin) another one
 #   scripts/build_wheel.sh --test            # also run the test suite against the installed wheel
+#   scripts/build_wheel.sh --out DIR         # where the wheel goes (relative to the current folder)
 #
 # The wheel requires exactly the MuJoCo it was built against (plugin/build_hooks/): the plugin
 # library links that libmujoco and reads its structs. auditwheel names the manylinux tag from the
@@ -52,7 +53,7 @@ echo "== wheel (mujoco ${mujoco_version:-newest in range})"
 # build folders stay out of the wheel.
 mkdir "$work/src"
 git ls-files -z --cached --others --exclude-standard \
-  | while IFS= read -r -d '' f; do [[ -e "$f" ]] && printf '%s\0' "$f"; done \
+  | while IFS= read -r -d '' f; do if [[ -e "$f" ]]; then printf '%s\0' "$f"; fi; done \
   | tar -c --null -T - | tar -x -C "$work/src"  # (tracked files deleted here are left out)
 # The constraint must reach pip's isolated build environment: PIP_BUILD_CONSTRAINT (pip >= 25.3;
 # pip 26.2 stopped applying PIP_CONSTRAINT there), PIP_CONSTRAINT for older pip.

@@ -406,9 +406,13 @@ def test_the_averaged_drop_in_without_vibration_holds_and_slides_at_1_ms(dahl_ta
     assert acceleration == pytest.approx(0.5 * MU * GRAVITY, rel=0.01)
 
 
-def test_the_averaged_drop_in_refuses_a_bad_axis(dahl_table):
-    with pytest.raises(ValueError, match="'axis' needs 3 numbers"):
-        _averaged_model(dahl_table, 1e-3, axis="0 0 0")
+@pytest.mark.parametrize("change, message", [
+    ({"axis": "0 0 0"}, "'axis' needs 3 numbers"),
+    ({"stribeck_velocity": "0"}, "stribeck_velocity.*must be > 0"),
+])
+def test_the_averaged_drop_in_refuses_bad_attributes(dahl_table, change, message):
+    with pytest.raises(ValueError, match=message):
+        _averaged_model(dahl_table, 1e-3, **change)
 
 
 def test_a_ball_on_one_contact_point_keeps_a_steady_coulomb_force():
@@ -476,3 +480,85 @@ def test_the_support_can_be_the_world():
     v = _push(model, data, 5000, (1.5 * MU * GRAVITY, 0, 0), lambda d: d.qvel[dof].copy())
     acceleration = np.polyfit(np.arange(len(v)) * model.opt.timestep, v, 1)[0]
     assert acceleration == pytest.approx(0.5 * MU * GRAVITY, rel=0.01)
+
+
+@pytest.mark.parametrize("element", ["contact", "contact_averaged"])
+def test_a_part_on_an_oblique_slide_joint_holds_below_mu_mg(element, dahl_table):
+    """A part that moves along one combination of the tangent directions only (a slide joint at
+    45 degrees): the response is singular and coupled, and the stick force its pseudo-inverse.
+    Pushed along the joint at half its friction level it holds; the friction balances the push.
+    (A per-axis stick force was twice too large and the part crept backwards.)"""
+    vibrofriction.load()
+    if element == "contact":
+        keys = ('<config key="law" value="coulomb"/><config key="mu" value="0.2"/>'
+                '<config key="support" value="world"/>')
+    else:
+        config = dahl_table.contact_config("world")
+        config["velocity_amplitude"] = "0"
+        keys = "".join(f'<config key="{k}" value="{v}"/>' for k, v in config.items())
+    model = mujoco.MjModel.from_xml_string(f"""
+<mujoco>
+  <option timestep="1e-3" integrator="implicitfast"/>
+  <extension>
+    <plugin plugin="vibrofriction.{element}"><instance name="pf">{keys}</instance></plugin>
+    <plugin plugin="vibrofriction.contact_sensor"/>
+  </extension>
+  <worldbody>
+    <geom type="plane" size="2 2 0.1" condim="1"/>
+    <body name="part" pos="0 0 0.05">
+      <joint type="slide" axis="0 0 1"/>
+      <joint name="along" type="slide" axis="1 1 0"/>
+      <geom type="box" size="0.05 0.05 0.05" mass="1" condim="1"/>
+      <plugin instance="pf"/>
+    </body>
+  </worldbody>
+  <sensor>
+    <plugin name="friction" plugin="vibrofriction.contact_sensor">
+      <config key="body" value="part"/>
+    </plugin>
+  </sensor>
+</mujoco>""")
+    data = mujoco.MjData(model)
+    _push(model, data, 300)
+    direction = np.array([1.0, 1.0, 0.0]) / math.sqrt(2)
+    push = 0.5 * MU * GRAVITY
+    start = data.qpos[1]
+    _push(model, data, 400, tuple(push * direction))
+    assert abs(data.qpos[1] - start) < 1e-5  # the first step's settling, then at rest
+    assert data.sensor("friction").data[:3] @ direction == pytest.approx(-push, rel=1e-6)
+    assert abs(data.qvel[1]) < 1e-12
+
+
+def test_the_averaged_drop_in_reads_the_table_at_the_in_plane_amplitude(dahl_table):
+    """A vibration at 45 degrees to the plate (axis "1 0 1") dithers the contact at v_a/sqrt 2:
+    the part creeps at (v_a/sqrt 2) sin(pi f/2), the heavy-body value at that amplitude."""
+    model = _averaged_model(dahl_table, 1e-3, axis="1 0 1")
+    data = mujoco.MjData(model)
+    _push(model, data, 50)
+    v = _mean_velocity(model, data, 1000, (0.5 * MU * GRAVITY, 0, 0), axis=0)
+    assert v == pytest.approx(0.02 / math.sqrt(2) * math.sin(math.pi / 4), rel=0.03)
+
+
+def test_the_averaged_drop_in_round_trips_its_state(dahl_table):
+    model = _averaged_model(dahl_table, 1e-3)
+    data = mujoco.MjData(model)
+    _push(model, data, 300, (0.5 * MU * GRAVITY, 0, 0))
+    spec = mujoco.mjtState.mjSTATE_INTEGRATION
+    state = np.empty(mujoco.mj_stateSize(model, spec))
+    mujoco.mj_getState(model, data, state, spec)
+    copy = mujoco.MjData(model)
+    mujoco.mj_setState(model, copy, state, spec)
+    a = _push(model, data, 100, (0.5 * MU * GRAVITY, 0, 0), lambda d: d.qvel.copy())
+    b = _push(model, copy, 100, (0.5 * MU * GRAVITY, 0, 0), lambda d: d.qvel.copy())
+    np.testing.assert_array_equal(a, b)
+
+
+def test_contact_config_takes_the_tables_vibration_axis():
+    from vibrofriction.averaged import Vibration, build_table
+    from vibrofriction.params import FrictionParameters
+    table = build_table(FrictionParameters(law="coulomb", friction_coefficient=MU),
+                        Vibration(1000.0, 0.02, axis_angle_rad=math.pi / 2), GRAVITY,
+                        xi=[0.0, 0.5, 1.0, 2.0], angle_rad=[0.0, math.pi / 2, math.pi])
+    axis = [float(a) for a in table.contact_config("plate")["axis"].split()]
+    np.testing.assert_allclose(axis, [0.0, 1.0, 0.0], atol=1e-15)
+    assert table.contact_config("plate", axis=(1, 0, 0))["axis"] == "1.0 0.0 0.0"

@@ -87,6 +87,9 @@ bool ContactConfig::FromModelAveraged(const mjModel* m, int instance, ContactCon
   if (p.static_ratio < 1) {
     return RejectAttribute(plugin, kStaticRatio, p.static_ratio, "must be >= 1");
   }
+  if (p.stribeck_velocity <= 0) {
+    return RejectAttribute(plugin, kStribeckVelocity, p.stribeck_velocity, "must be > 0 (m/s)");
+  }
   if (c.velocity_amplitude < 0) {
     return RejectAttribute(plugin, kVelocityAmplitude, c.velocity_amplitude,
                            "must be >= 0 (m/s), the vibration velocity amplitude the table was "
@@ -245,24 +248,28 @@ void ContactFriction::ImplicitForce(const mjModel* m, mjData* d, const mjtNum* s
   const mjtNum* other = state + ContactState::kOtherAcceleration;
   double ahead[4];  // u after this step without the element's force (estimate)
   for (int i = 0; i < 4; ++i) ahead[i] = u[i] + dt * other[i];
+  if (!(state[ContactState::kRadius] > 0)) ahead[3] = 0.0;  // a point: no spin coordinate
   const double v[3] = {mju_dot3(u, t1), mju_dot3(u, t2), u[3]};
   const double v_free[3] = {mju_dot3(ahead, t1), mju_dot3(ahead, t2), ahead[3]};
   double f3[3];
   double axis3[3] = {0, 0, 0};
-  bool vibrating = velocity_amplitude > 0;
-  if (vibrating) {
-    // The vibration direction in the tangent plane, in (t1, t2, spin) components.
+  if (velocity_amplitude > 0) {
+    // The vibration's part in the tangent plane, in (t1, t2, spin) components: the table is
+    // read at that amplitude (the part along the normal is not modelled: it would modulate
+    // the load, which MuJoCo's contact carries).
     mjtNum axis[3];
     mju_mulMatVec3(axis, d->xmat + 9 * config_->support, config_->axis_local);
     axis3[0] = mju_dot3(axis, t1);
     axis3[1] = mju_dot3(axis, t2);
-    const double length = std::hypot(axis3[0], axis3[1]);
-    vibrating = length > 1e-6;  // a vibration along the normal slides nothing
-    if (vibrating) {
-      axis3[0] /= length;
-      axis3[1] /= length;
+    const double in_plane = std::hypot(axis3[0], axis3[1]);
+    velocity_amplitude *= in_plane;
+    if (in_plane > 0) {
+      axis3[0] /= in_plane;
+      axis3[1] /= in_plane;
     }
   }
+  // Below 1e-9 of the table's amplitude the dither slides nothing: rigid Coulomb.
+  const bool vibrating = velocity_amplitude > 1e-9 * config_->velocity_amplitude;
   if (vibrating) {
     double end[3] = {v[0], v[1], v[2]};
     SolveAveragedEndVelocity<3>(config_->table, config_->law, axis3, in.normal_force,
@@ -397,6 +404,7 @@ void ContactFriction::Advance(const mjModel* m, mjData* d, int instance) {
     for (int i = 0; i < 4; ++i) {
       other[i] = coulomb_applied_ ? (u[i] + response_[i] - u_start_[i]) / dt : 0.0;
     }
+    if (!(rho > 0)) other[3] = 0.0;  // a point: no spin coordinate
     return;
   }
   LawInput in;

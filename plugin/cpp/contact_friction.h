@@ -115,8 +115,9 @@ class ContactFriction {
   double speed_ = 0;
 };
 
-// Registers vibrofriction.contact and vibrofriction.contact_sensor (config `body`: the body the
-// element is attached to).
+// Registers vibrofriction.contact, vibrofriction.contact_averaged (the same element with the
+// vibration-averaged table, for robot timesteps) and vibrofriction.contact_sensor (config
+// `body`: the body either element is attached to).
 void RegisterContactPlugins();
 
 }  // namespace vibrofriction

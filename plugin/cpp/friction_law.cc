@@ -523,6 +523,55 @@ double Determinant<3>(const double B[9]) {
          B[2] * (B[3] * B[7] - B[4] * B[6]);
 }
 
+// x = B^+ b for a symmetric positive semi-definite B (N x N): its eigenvectors by Jacobi
+// rotations, the eigenvalues below `tiny` dropped (directions without response take no force).
+template <int N>
+void PseudoInverseSolve(const double B[N * N], const double b[N], double tiny, double x[N]) {
+  double a[N][N], q[N][N];
+  for (int i = 0; i < N; ++i) {
+    for (int j = 0; j < N; ++j) {
+      a[i][j] = 0.5 * (B[N * i + j] + B[N * j + i]);
+      q[i][j] = i == j;
+    }
+  }
+  for (int sweep = 0; sweep < 50; ++sweep) {
+    double off = 0.0, total = 0.0;
+    for (int i = 0; i < N; ++i) {
+      for (int j = 0; j < N; ++j) (i == j ? total : off) += a[i][j] * a[i][j];
+    }
+    if (off <= 1e-30 * (total + off)) break;
+    for (int i = 0; i < N; ++i) {
+      for (int j = i + 1; j < N; ++j) {
+        if (a[i][j] == 0) continue;
+        const double theta = 0.5 * std::atan2(2 * a[i][j], a[j][j] - a[i][i]);
+        const double c = std::cos(theta), s = std::sin(theta);
+        for (int k = 0; k < N; ++k) {  // A <- A R, then A <- R' A, Q <- Q R
+          const double ki = a[k][i], kj = a[k][j];
+          a[k][i] = c * ki - s * kj;
+          a[k][j] = s * ki + c * kj;
+        }
+        for (int k = 0; k < N; ++k) {
+          const double ik = a[i][k], jk = a[j][k];
+          a[i][k] = c * ik - s * jk;
+          a[j][k] = s * ik + c * jk;
+        }
+        for (int k = 0; k < N; ++k) {
+          const double ki = q[k][i], kj = q[k][j];
+          q[k][i] = c * ki - s * kj;
+          q[k][j] = s * ki + c * kj;
+        }
+      }
+    }
+  }
+  for (int i = 0; i < N; ++i) x[i] = 0.0;
+  for (int k = 0; k < N; ++k) {
+    if (!(a[k][k] > tiny)) continue;
+    double projection = 0.0;
+    for (int i = 0; i < N; ++i) projection += q[i][k] * b[i];
+    for (int i = 0; i < N; ++i) x[i] += q[i][k] * projection / a[k][k];
+  }
+}
+
 }  // namespace
 
 template <int N>
@@ -536,16 +585,18 @@ void VectorStickSlipForce(const LawParameters& p, const LawInput& in, const doub
     trace += B[N * i + i];
     for (int j = 0; j < N; ++j) diagonal = diagonal && (i == j || B[N * i + j] == 0);
   }
-  // An axis whose response is below 1e-12 of the trace has none: no force can move it.
-  auto per_axis = [&] {  // decoupled axes (as the 1D element divides), or no response on one
-    for (int i = 0; i < N; ++i) {
-      stick[i] = B[N * i + i] > 1e-12 * trace ? v_free[i] / B[N * i + i] : 0.0;
-    }
-  };
+  // A direction whose response is below 1e-12 of the trace has none: no force can move it.
   double scale = 1.0;  // trace^N: det > 1e-12 trace^N is invertible to working precision
   for (int i = 0; i < N; ++i) scale *= trace;
   const bool invertible = Determinant<N>(B) > 1e-12 * scale;
-  if (diagonal || !invertible || !SolveLinear<N>(B, v_free, 0.0, stick)) per_axis();
+  if (diagonal) {  // decoupled axes (as the 1D element divides)
+    for (int i = 0; i < N; ++i) {
+      stick[i] = B[N * i + i] > 1e-12 * trace ? v_free[i] / B[N * i + i] : 0.0;
+    }
+  } else if (!invertible || !SolveLinear<N>(B, v_free, 0.0, stick)) {
+    // coupled and singular (a body that moves along one combination of the axes only)
+    PseudoInverseSolve<N>(B, v_free, 1e-12 * trace, stick);
+  }
   const double stick_norm = Norm<N>(stick);
   LawInput at_rest = in;
   at_rest.velocity = 0.0;
@@ -577,7 +628,7 @@ void VectorStickSlipForce(const LawParameters& p, const LawInput& in, const doub
   int moving_axes = 0;
   for (int i = 0; i < N; ++i) moving_axes += v_free[i] != 0;
   const bool one_axis = moving_axes <= 1 && diagonal;
-  if (invertible && !one_axis && kinetic > 0) {
+  if (!one_axis && !(diagonal && !invertible) && kinetic > 0) {  // I + lambda B: invertible
     const double b_mean = std::max(trace / N, 1e-300);
     double lo = 0.0, hi = kinetic / (b_mean * std::max(stick_norm - kinetic, 1e-300 * stick_norm));
     double u[N];

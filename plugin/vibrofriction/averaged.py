@@ -106,11 +106,15 @@ class AveragedTable:
         return config
 
     def contact_config(self, support: str, *,
-                       axis: tuple[float, float, float] = (1.0, 0.0, 0.0),
+                       axis: tuple[float, float, float] | None = None,
                        torsion_radius_m: float | None = None) -> dict[str, str]:
         """Config of a vibrofriction.contact_averaged instance: the drop-in element for a free
-        body on ``support`` vibrating along ``axis`` (the support body's frame). The normal
-        load is MuJoCo's contact force, so the table's normal_force_N only shaped the table."""
+        body on ``support`` vibrating along ``axis`` (the support body's frame; default: the
+        table's vibration angle in the support's x-y plane). The normal load is MuJoCo's
+        contact force, so the table's normal_force_N only shaped the table."""
+        if axis is None:
+            angle = self.vibration.axis_angle_rad
+            axis = (math.cos(angle), math.sin(angle), 0.0)
         config = self.config()
         for key in ("normal", "axis_angle"):
             config.pop(key)
