@@ -71,6 +71,17 @@ def _backticked(text: str) -> list[str]:
     return re.findall(r"`([\w*]+)`", text)
 
 
+def _units(cell: str) -> list[str]:
+    """A docs unit cell's units ("–" or "—": dimensionless, the table's "-")."""
+    return [unit.replace("–", "-").replace("—", "-") for unit in cell.split(", ")]
+
+
+def _laws(cell: str) -> set[str]:
+    """A docs laws cell: "all" or a list, then ':' or ';' and a remark."""
+    text = re.split(r"[:;]", cell)[0].strip()
+    return set(ALL_LAWS) if text == "all" else set(text.split(", "))
+
+
 def _md_section(text: str, heading: str) -> str:
     start = text.index(heading) + len(heading)
     following = re.search(r"^#{2,3} ", text[start:], re.M)
@@ -169,18 +180,18 @@ def test_the_c_api_struct_and_the_ctypes_layout_are_the_tables() -> None:
         {"normal_force"}
 
 
-def test_the_docs_parameter_table_names_each_key_and_default() -> None:
-    rows = {}
-    for line in (ROOT / "docs" / "simulation.md").read_text().splitlines():
-        cells = [c.strip() for c in line.strip().strip("|").split("|")]
-        if len(cells) >= 5 and cells[0].startswith("`") and cells[1].startswith("`"):
-            rows[cells[0].strip("`")] = cells
+def test_the_docs_parameter_table_names_each_key_unit_default_and_laws() -> None:
+    rows = {cells[0].strip("`"): cells for cells in _table_rows(
+        (ROOT / "docs" / "simulation.md").read_text(),
+        "| Python name | MJCF | symbol | unit | default | laws | meaning |")}
     for term in FRICTION_TERMS:
         cells = rows[term.name]
         assert cells[1] == f"`{term.mjcf_key}`", term.name
+        assert _units(cells[3]) == [term.unit], term.name
         documented = re.match(r"[-+0-9.e]+", cells[4])
         assert documented and float(documented.group(0)) == pytest.approx(term.default), \
             term.name
+        assert _laws(cells[5]) == set(term.laws), f"{term.name}: simulation.md says {cells[5]}"
 
 
 def test_robots_docs_parameter_table_names_each_planar_key_its_unit_and_laws() -> None:
@@ -195,9 +206,8 @@ def test_robots_docs_parameter_table_names_each_planar_key_its_unit_and_laws() -
             assert set(keys) <= OWN_KEYS["planar"], keys
             continue
         names = _backticked(names_cell)
-        units = [u.replace("–", "-") for u in units_cell.split(", ")]
-        laws_text = re.split(r"[:;]", laws_cell)[0].strip()
-        laws = set(ALL_LAWS) if laws_text == "all" else set(laws_text.split(", "))
+        units = _units(units_cell)
+        laws = _laws(laws_cell)
         assert len(units) == len(keys), keys
         for index, key in enumerate(keys):
             term = next((t for t in FRICTION_TERMS if t.mjcf_key == key), None)
@@ -208,6 +218,37 @@ def test_robots_docs_parameter_table_names_each_planar_key_its_unit_and_laws() -
             assert laws == set(term.laws), f"{key}: robots.md says {sorted(laws)}"
             documented.add(key)
     assert documented == set(element_keys("planar").values())
+
+
+def test_robots_docs_averaged_keys_sentence_names_the_keys_the_element_takes() -> None:
+    section = _md_section((ROOT / "docs" / "robots.md").read_text(),
+                          "## Robot-timestep mode (`vibrofriction.averaged`)")
+    sentence = re.split(r"\.\s", section[section.index("The averaged instance takes"):])[0]
+    mentioned = set(_backticked(sentence)) & TABLE_KEYS.union(*OWN_KEYS.values())
+    takes = OWN_KEYS["averaged"] | set(element_keys("averaged").values())
+    assert mentioned == takes, f"missing: {takes - mentioned}; not taken: {mentioned - takes}"
+
+
+def test_interfaces_docs_friction_key_table_gives_each_key_its_name_unit_and_default() -> None:
+    """The key table of ``vibrofriction.friction``: its own keys and, one a row, each table key
+    with the table's Python name, unit and default."""
+    section = _md_section((ROOT / "docs" / "interfaces.md").read_text(),
+                          "### `vibrofriction.friction`\n")
+    listed = []
+    for keys_cell, name_cell, unit_cell, default_cell, _ in _table_rows(
+            section, "| key | Python name | unit | default |"):
+        keys = _backticked(keys_cell)
+        listed += keys
+        if not set(keys) & TABLE_KEYS:
+            continue
+        term = next((t for t in FRICTION_TERMS if [t.mjcf_key] == keys), None)
+        assert term is not None, f"{keys}: not one table key"
+        assert name_cell == f"`{term.name}`", term.mjcf_key
+        assert _units(unit_cell) == [term.unit], term.mjcf_key
+        assert float(default_cell) == pytest.approx(term.default), term.mjcf_key
+    assert len(listed) == len(set(listed)), "a key listed twice"
+    takes = OWN_KEYS["friction"] | set(element_keys("friction").values())
+    assert set(listed) == takes, f"missing: {takes - set(listed)}; not taken: {set(listed) - takes}"
 
 
 @pytest.mark.parametrize("element", ["planar", "contact"])

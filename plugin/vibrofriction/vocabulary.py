@@ -12,8 +12,9 @@ the C++ ``Law`` enum (its values).
 defaults and ``laws``' struct filling come from this table; ``tests/test_vocabulary.py``
 checks the C++ side (``friction_law.h``'s fields, defaults and law enum, the config readers'
 keys, fields and defaults, each element's ``kAttributes``, ``c_api.h``'s struct), the ctypes
-struct, the keys and defaults of ``docs/simulation.md``'s parameter table, the keys, units and
-laws of ``docs/robots.md``'s and the element keys of ``docs/interfaces.md`` against it.
+struct, the keys, units, defaults and laws of ``docs/simulation.md``'s parameter table, the
+keys, units and laws of ``docs/robots.md``'s (and its averaged keys sentence), and
+``docs/interfaces.md``'s friction key table and element key lists against it.
 (``plugin_util.cc``'s ranges are checked at run time by ``tests/test_plugin_config.py``.)
 """
 from __future__ import annotations
