@@ -17,7 +17,8 @@ switching times are found numerically (bracketed roots):
   s- - mu p sign(s-).
 
 The conveying velocity is the mean of s (the track's own mean velocity is 0) over whole periods
-once the motion repeats. Independent of the plugin and of MuJoCo.
+once the motion repeats. Independent of the plugin and of MuJoCo. For mu above about 1e5 the slip
+phases' closed forms (P, Q ~ mu g) lose digits to cancellation: use mu <= 1e4 as "infinite".
 """
 from __future__ import annotations
 
