@@ -17,8 +17,10 @@ switching times are found numerically (bracketed roots):
   s- - mu p sign(s-).
 
 The conveying velocity is the mean of s (the track's own mean velocity is 0) over whole periods
-once the motion repeats. Independent of the plugin and of MuJoCo. For mu above about 1e5 the slip
-phases' closed forms (P, Q ~ mu g) lose digits to cancellation: use mu <= 1e4 as "infinite".
+once the motion repeats (successive windows agree). The flight's height is evaluated without
+cancellation near its start (it grows as tau^3 there), and each event search starts from the
+sign it must have, so no false event follows a lift-off or a release. Independent of the plugin
+and of MuJoCo.
 """
 from __future__ import annotations
 
@@ -51,9 +53,10 @@ class Feeder:
         if not 0 < self.throw_angle_rad < math.pi / 2:
             raise ParameterError(f"Feeder throw_angle_rad={self.throw_angle_rad!r} must be in "
                              "(0, pi/2)")
-        if not (self.friction_coefficient >= 0 and math.isfinite(self.friction_coefficient)):
-            raise ParameterError(f"Feeder friction_coefficient={self.friction_coefficient!r} must be "
-                             ">= 0")
+        if not (self.friction_coefficient > 0 and math.isfinite(self.friction_coefficient)):
+            # (without friction the block keeps whatever velocity it starts with)
+            raise ParameterError(f"Feeder friction_coefficient={self.friction_coefficient!r} "
+                                 "must be > 0")
 
     @property
     def omega(self) -> float:
@@ -92,17 +95,45 @@ def _position(P: float, Q: float, w: float, t0: float, v0: float, t: float) -> f
             + 0.5 * Q * tau**2)
 
 
-def _first_root(f, t0: float, t_end: float, step: float) -> float | None:
-    """The first t in (t0, t_end] where f changes sign, bracketed on `step`, refined by brentq;
-    None when it keeps the sign of f(t0)."""
-    a, fa = t0, f(t0)
+def _first_root(f, t0: float, t_end: float, step: float, sign: float) -> float | None:
+    """The first t in (t0, t_end] where f, of the known `sign` just after t0, reaches 0 or the
+    other sign: bracketed on `step`, refined by brentq. None when it keeps its sign. (The sign
+    is given, not read at t0: an event leaves f at 0 there, and its rounding noise would make a
+    false root.)"""
+    a = t0
     while a < t_end:
         b = min(a + step, t_end)
         fb = f(b)
-        if fa * fb < 0 or fb == 0:
-            return b if fb == 0 else brentq(f, a, b, xtol=1e-15, rtol=1e-14)
-        a, fa = b, fb
+        if sign * fb <= 0:
+            if fb == 0:
+                return b
+            if a == t0:
+                # a short phase: bracket from the largest point after t0 that still has `sign`
+                width = b - t0
+                for _ in range(48):
+                    width *= 0.5
+                    if sign * f(t0 + width) > 0:
+                        return brentq(f, t0 + width, b, xtol=1e-15, rtol=1e-14)
+                return t0 + width  # ends at once, to rounding
+            return brentq(f, a, b, xtol=1e-15, rtol=1e-14)
+        a = b
     return None
+
+
+def _one_minus_cos_minus_half_square(x: float) -> float:
+    """1 - cos x - x^2/2, without cancellation for small x."""
+    if abs(x) < 1e-2:
+        x2 = x * x
+        return x2 * x2 * (-1 / 24 + x2 * (1 / 720 - x2 / 40320))
+    return 1 - math.cos(x) - 0.5 * x * x
+
+
+def _x_minus_sin(x: float) -> float:
+    """x - sin x, without cancellation for small x."""
+    if abs(x) < 1e-2:
+        x2 = x * x
+        return x * x2 * (1 / 6 + x2 * (-1 / 120 + x2 / 5040))
+    return x - math.sin(x)
 
 
 @dataclass(frozen=True)
@@ -114,17 +145,22 @@ class FeederMotion:
     stick_fraction: float     # stuck to the track
     backward_fraction: float  # slipping backwards
     periods: int              # simulated, settling included
+    converged: bool           # the last two windows agreed within the tolerance
 
     def normalized(self, feeder: Feeder) -> float:
         """V / (A w cos beta)."""
         return self.mean_velocity_m_per_s / feeder.along_velocity_amplitude
 
 
-def convey(feeder: Feeder, *, settle_periods: int = 40, measure_periods: int = 20,
+def convey(feeder: Feeder, *, settle_periods: int = 40, window_periods: int = 24,
+           tolerance: float = 1e-7, max_periods: int = 4000,
            samples_per_period: int = 400) -> FeederMotion:
-    """Event-driven motion of the block from rest on the track at t = 0, and its mean over
-    `measure_periods` after `settle_periods`; switching times are bracketed on
-    `samples_per_period` points a period."""
+    """Event-driven motion of the block starting stuck to the track (co-moving with it) at
+    t = 0. After `settle_periods`, windows of `window_periods` (24: period-2, -3, -4, -6 motions
+    average out) follow until two successive window means of the relative velocity agree within
+    `tolerance` x A w cos(beta), or `max_periods` (then `converged` is False); the last
+    window's mean is returned. Switching times are bracketed on `samples_per_period` points a
+    period."""
     w, g, mu = feeder.omega, feeder.gravity_m_per_s2, feeder.friction_coefficient
     b = feeder.throw_angle_rad
     along = feeder.amplitude_m * w * w * math.cos(b)    # the track's acceleration amplitudes,
@@ -132,8 +168,8 @@ def convey(feeder: Feeder, *, settle_periods: int = 40, measure_periods: int = 2
     period = 2 * math.pi / w
     step = period / samples_per_period
     eps = 1e-9 * period  # past an event, to read which way the motion goes
-    t_start = settle_periods * period
-    t_stop = (settle_periods + measure_periods) * period
+    gamma = feeder.throw_number
+    lift_phase = math.asin(1 / gamma) if gamma > 1 else None  # the load turns negative there
 
     def load(x):  # normal load per unit mass while in contact
         return g - normal * math.sin(w * x)
@@ -141,82 +177,136 @@ def convey(feeder: Feeder, *, settle_periods: int = 40, measure_periods: int = 2
     def excess(x):  # friction a stick needs beyond mu N (per unit mass)
         return abs(along * math.sin(w * x)) - mu * load(x)
 
-    totals = {"integral": 0.0, "flight": 0.0, "stick": 0.0, "backward": 0.0}
+    def next_lift(t0):
+        """The first time after t0 where the load turns negative (closed form)."""
+        if lift_phase is None:
+            return None
+        k = math.floor((w * t0 - lift_phase) / (2 * math.pi)) + 1
+        candidate = (lift_phase + 2 * math.pi * k) / w
+        return candidate if candidate > t0 + eps else candidate + period
+
+    def flight_height(t0, x):
+        """Height above the track at x of a flight that left it at t0 with zero normal rate
+        (the load there: 0 at a lift-off, negative after a landing into a re-lift)."""
+        tau, theta, phase = x - t0, w * (x - t0), w * t0
+        return (-load(t0) * 0.5 * tau * tau + normal / (w * w) * (
+            math.sin(phase) * _one_minus_cos_minus_half_square(theta)
+            + math.cos(phase) * _x_minus_sin(theta)))
+
+    # per-period sums: the integral of s and the times in flight, stuck, slipping backwards
+    bins = {key: [] for key in ("integral", "flight", "stick", "backward")}
 
     def account(kind, t0, t1, P, Q, v0):
-        """Adds the part of [t0, t1] inside the measured window."""
-        lo, hi = max(t0, t_start), min(t1, t_stop)
-        if hi <= lo:
-            return
-        totals["integral"] += _position(P, Q, w, lo, _velocity(P, Q, w, t0, v0, lo), hi)
-        if kind in totals:
-            totals[kind] += hi - lo
+        """Adds [t0, t1] to the periods it covers."""
+        lo = t0
+        while lo < t1:
+            k = int(lo // period)
+            hi = min(t1, (k + 1) * period)
+            if hi <= lo:  # rounding at a boundary
+                k += 1
+                hi = min(t1, (k + 1) * period)
+            for key in bins:
+                while len(bins[key]) <= k:
+                    bins[key].append(0.0)
+            bins["integral"][k] += _position(P, Q, w, lo, _velocity(P, Q, w, t0, v0, lo), hi)
+            if kind in bins:
+                bins[kind][k] += hi - lo
+            lo = hi
 
     t, s, in_flight = 0.0, 0.0, False
-    for _ in range(100 * samples_per_period * (settle_periods + measure_periods)):
-        if t >= t_stop:
-            break
-        if in_flight:
-            # Height above the track from 0 with rate 0; the block lands when it is 0 again.
-            def height(x, t0=t):
-                return _position(normal, -g, w, t0, 0.0, x)
-            land = _first_root(height, t + eps, t_stop, step)
-            t_end = t_stop if land is None else land
-            account("flight", t, t_end, along, 0.0, s)
-            s_minus = _velocity(along, 0.0, w, t, s, t_end)
-            if land is not None:
-                impulse = -_velocity(normal, -g, w, t, 0.0, land)
+    events_left = 50 * samples_per_period * max_periods  # a guard, far above any real count
+
+    def run_until(t_stop):
+        nonlocal t, s, in_flight, events_left
+        while t < t_stop:
+            events_left -= 1
+            if events_left < 0:
+                raise RuntimeError("feeder reference: more events than a run can have")
+            if in_flight:
+                t0 = t
+                # a flight is followed to its landing, past t_stop if need be (the windows read
+                # whole periods only)
+                land = _first_root(lambda x: flight_height(t0, x), t0, t0 + 20 * period, step,
+                                   +1.0)
+                if land is None:
+                    raise RuntimeError("feeder reference: a flight longer than 20 periods "
+                                       f"(throw number {gamma:.3g})")
+                account("flight", t0, land, along, 0.0, s)
+                s_minus = _velocity(along, 0.0, w, t0, s, land)
+                rate = -normal / w * (math.cos(w * land) - math.cos(w * t0)) - g * (land - t0)
+                impulse = -rate
                 s = 0.0 if abs(s_minus) <= mu * impulse else \
                     s_minus - mu * impulse * math.copysign(1.0, s_minus)
-            t, in_flight = t_end, False
-            continue
-        if load(t + eps) < 0:
-            in_flight = True
-            continue
-        lift = _first_root(load, t + eps, t_stop, step)
-        if s == 0.0:
-            if excess(t + eps) <= 0:  # it stays stuck until released or lifted
-                release = _first_root(excess, t + eps, t_stop, step)
-                t_end = min(x for x in (release, lift, t_stop) if x is not None)
-                account("stick", t, t_end, 0.0, 0.0, 0.0)
-                t = t_end
-                in_flight = lift is not None and t == lift
+                t, in_flight = land, False
                 continue
-            # Released: it slips against the track's pull (the friction saturates).
-            direction = 1.0 if along * math.sin(w * (t + eps)) > 0 else -1.0
-        else:
-            direction = 1.0 if s > 0 else -1.0
-        P, Q = (along + direction * mu * normal), -direction * mu * g
-        v0, t0 = s, t
+            if load(t + eps) < 0:
+                in_flight = True
+                continue
+            lift = next_lift(t)
+            lift = lift if lift is not None and lift < t_stop else None
+            if s == 0.0:
+                if excess(t + eps) <= 0:  # it stays stuck until released or lifted
+                    release = _first_root(excess, t, t_stop, step, -1.0)
+                    t_end = min(x for x in (release, lift, t_stop) if x is not None)
+                    account("stick", t, t_end, 0.0, 0.0, 0.0)
+                    in_flight = lift is not None and t_end == lift
+                    t = t_end
+                    continue
+                # Released: it slips against the track's pull (the friction saturates).
+                direction = 1.0 if along * math.sin(w * (t + eps)) > 0 else -1.0
+            else:
+                direction = 1.0 if s > 0 else -1.0
+            P, Q = (along + direction * mu * normal), -direction * mu * g
+            v0, t0 = s, t
+            stop = _first_root(lambda x: direction * _velocity(P, Q, w, t0, v0, x), t0,
+                               t_stop, step, +1.0)
+            t_end = min(x for x in (stop, lift, t_stop) if x is not None)
+            account("backward" if direction < 0 else "forward", t0, t_end, P, Q, v0)
+            s = 0.0 if (stop is not None and t_end == stop) else \
+                _velocity(P, Q, w, t0, v0, t_end)
+            in_flight = lift is not None and t_end == lift
+            t = t_end
 
-        def relative(x):  # > 0 while it slips in `direction`
-            return direction * _velocity(P, Q, w, t0, v0, x)
-        stop = _first_root(relative, t + eps, t_stop, step)
-        t_end = min(x for x in (stop, lift, t_stop) if x is not None)
-        account("backward" if direction < 0 else "forward", t, t_end, P, Q, v0)
-        s = 0.0 if (stop is not None and t_end == stop) else _velocity(P, Q, w, t0, v0, t_end)
-        t = t_end
-        in_flight = lift is not None and t == lift
-    else:
-        raise RuntimeError("feeder reference: more events than a run can have")
-    window = t_stop - t_start
-    return FeederMotion(totals["integral"] / window, totals["flight"] / window,
-                        totals["stick"] / window, totals["backward"] / window,
-                        settle_periods + measure_periods)
+    def window_mean(end_period):
+        lo = end_period - window_periods
+        return {key: sum(values[lo:end_period]) / (window_periods * period)
+                for key, values in bins.items()}
+
+    periods = settle_periods + window_periods
+    previous, converged = None, False
+    while True:
+        run_until(periods * period)
+        current = window_mean(periods)
+        scale = tolerance * feeder.along_velocity_amplitude
+        if previous is not None and abs(current["integral"] - previous["integral"]) <= scale:
+            converged = True
+            break
+        if periods + window_periods > max_periods:
+            break
+        previous = current
+        periods += window_periods
+    return FeederMotion(current["integral"], current["flight"], current["stick"],
+                        current["backward"], periods, converged)
 
 
 def flight_fraction_infinite_friction(throw_number: float) -> float:
     """n_F of classical throw theory: sqrt(G^2 - 1)(2 pi n - sin 2 pi n) = 2 pi^2 n^2 +
     cos 2 pi n - 1, for 1 < G <= sqrt(1 + pi^2) (one flight within a period)."""
-    if not 1 < throw_number <= math.sqrt(1 + math.pi**2) + 1e-12:
+    limit = math.sqrt(1 + math.pi**2)
+    if not 1 < throw_number <= limit:
         raise ParameterError(f"throw number {throw_number!r} must be in (1, sqrt(1 + pi^2)]")
+    if throw_number >= limit * (1 - 1e-14):
+        return 1.0
     root = math.sqrt(throw_number**2 - 1)
 
-    def f(n):
-        return root * (2 * math.pi * n - math.sin(2 * math.pi * n)) - \
-            (2 * math.pi**2 * n**2 + math.cos(2 * math.pi * n) - 1)
-    # f ~ n^3 > 0 near the trivial root n = 0 and f(1) < 0: bracket away from 0
-    return brentq(f, 1e-3, 1.0, xtol=1e-14)
+    def f(n):  # (2 pi^2 n^2 + cos 2 pi n - 1 = -(1 - cos x - x^2/2), x = 2 pi n)
+        x = 2 * math.pi * n
+        return root * _x_minus_sin(x) + _one_minus_cos_minus_half_square(x)
+    # f ~ n^3 > 0 near the trivial root n = 0 and f(1) < 0: start the bracket where f > 0
+    low = 1e-3
+    while f(low) <= 0 and low > 1e-12:
+        low /= 10
+    return brentq(f, low, 1.0, xtol=1e-15)
 
 
 def infinite_friction_velocity_ratio(throw_number: float) -> float:
