@@ -268,3 +268,14 @@ def test_interfaces_docs_averaged_key_table_names_the_keys_the_element_takes() -
     listed = {key for cells in _table_rows(section, "| key |") for key in _backticked(cells[0])}
     takes = OWN_KEYS["averaged"] | set(element_keys("averaged").values())
     assert listed == takes, f"missing: {takes - listed}; not taken: {listed - takes}"
+
+
+def test_the_one_copy_from_the_c_struct_fills_every_field() -> None:
+    """LawFromStruct (c_api.cc) is the only place that fills LawParameters from the C struct
+    (vf_run_law and vf_run_planar_law both use it): every struct field, each to its own name."""
+    body = re.search(r"LawParameters LawFromStruct\(const vf_law_parameters& c\) \{(.*?)\n\}",
+                     _cpp("c_api.cc"), re.S).group(1)
+    copied = re.findall(r"p\.(\w+) = c\.(\w+);", body)
+    assert sorted(copied) == sorted((field, field) for field in LAW_STRUCT_FIELDS)
+    for source in ("c_api.cc", "planar_friction.cc"):
+        assert "params->friction_coefficient" not in _cpp(source), f"a second copy in {source}"

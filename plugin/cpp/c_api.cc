@@ -4,11 +4,11 @@
 
 #include "friction_law.h"
 
-namespace {
+namespace vibrofriction {
 
-vibrofriction::LawParameters ToLaw(const vf_law_parameters& c) {
-  vibrofriction::LawParameters p;
-  p.law = static_cast<vibrofriction::Law>(c.law);
+LawParameters LawFromStruct(const vf_law_parameters& c) {
+  LawParameters p;
+  p.law = static_cast<Law>(c.law);
   p.friction_coefficient = c.friction_coefficient;
   p.normal_force = c.normal_force;
   p.contact_stiffness = c.contact_stiffness;
@@ -28,6 +28,10 @@ vibrofriction::LawParameters ToLaw(const vf_law_parameters& c) {
   p.force_offset = c.force_offset;
   return p;
 }
+
+}  // namespace vibrofriction
+
+namespace {
 
 vibrofriction::LawInput InputAt(const vibrofriction::LawParameters& p, int i, const double* time,
                                 const double* velocity, const double* position,
@@ -53,7 +57,7 @@ int vf_run_law(const vf_law_parameters* params, int n, const double* time,
                double z0, double* force_out, double* deflection_out) {
   if (!params || n < 0 || !time || !velocity || !force_out || !deflection_out) return -1;
   if (params->law < 0 || params->law > 3) return -1;
-  const vibrofriction::LawParameters p = ToLaw(*params);
+  const vibrofriction::LawParameters p = vibrofriction::LawFromStruct(*params);
   double z = vibrofriction::HasDeflection(p.law) ? z0 : 0.0;
   for (int i = 0; i < n; ++i) {
     const vibrofriction::LawInput in = InputAt(p, i, time, velocity, position, normal_force);

@@ -46,6 +46,12 @@ VF_EXPORT int vf_run_planar_law(const vf_law_parameters* params, int n, const do
 
 #ifdef __cplusplus
 }
+
+namespace vibrofriction {
+struct LawParameters;
+// The law's parameters from the C struct: every field (one copy, c_api.cc).
+LawParameters LawFromStruct(const vf_law_parameters& c);
+}  // namespace vibrofriction
 #endif
 
 #endif  // VIBROFRICTION_C_API_H_

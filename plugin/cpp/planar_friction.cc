@@ -295,20 +295,7 @@ int vf_run_planar_law(const vf_law_parameters* params, int n, const double* time
   if (!params || n < 0 || !time || !vx || !vy || !fx || !fy || !zx || !zy) return -1;
   if (params->law < 0 || params->law > 3) return -1;
   if (params->asymmetry != 0 || params->ripple != 0 || params->force_offset != 0) return -1;
-  LawParameters p;
-  p.law = static_cast<Law>(params->law);
-  p.friction_coefficient = params->friction_coefficient;
-  p.normal_force = params->normal_force;
-  p.contact_stiffness = params->contact_stiffness;
-  p.alpha = params->alpha;
-  p.breakaway_ratio = params->breakaway_ratio;
-  p.bristle_damping = params->bristle_damping;
-  p.viscous = params->viscous;
-  p.static_ratio = params->static_ratio;
-  p.stribeck_velocity = params->stribeck_velocity;
-  p.normal_modulation = params->normal_modulation;
-  p.normal_modulation_frequency = params->normal_modulation_frequency;
-  p.normal_modulation_phase = params->normal_modulation_phase;
+  const LawParameters p = LawFromStruct(*params);  // (the refused effects are 0)
   auto input = [&](int i) {
     LawInput in;
     in.time = time[i];
