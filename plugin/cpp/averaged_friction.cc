@@ -203,31 +203,45 @@ bool ReadAveragedTable(const mjModel* m, int instance, const char* plugin,
   return true;
 }
 
+bool ReadAveragedLaw(const mjModel* m, int instance, const char* plugin, LawParameters* law,
+                     double* velocity_amplitude) {
+  LawParameters& p = *law;
+  p.law = Law::kCoulomb;
+  if (!ReadNumber(m, instance, plugin, kMu, 0.2, &p.friction_coefficient) ||
+      !ReadNumber(m, instance, plugin, kViscous, 0.0, &p.viscous) ||
+      !ReadNumber(m, instance, plugin, kStaticRatio, 1.0, &p.static_ratio) ||
+      !ReadNumber(m, instance, plugin, kStribeckVelocity, 1e-3, &p.stribeck_velocity) ||
+      !ReadNumber(m, instance, plugin, kVelocityAmplitude, 0.0, velocity_amplitude)) {
+    return false;
+  }
+  if (p.friction_coefficient < 0) {
+    return RejectAttribute(plugin, kMu, p.friction_coefficient, "must be >= 0");
+  }
+  if (p.viscous < 0) return RejectAttribute(plugin, kViscous, p.viscous, "must be >= 0 (N s/m)");
+  if (p.static_ratio < 1) {
+    return RejectAttribute(plugin, kStaticRatio, p.static_ratio, "must be >= 1");
+  }
+  if (p.stribeck_velocity <= 0) {
+    return RejectAttribute(plugin, kStribeckVelocity, p.stribeck_velocity, "must be > 0 (m/s)");
+  }
+  if (*velocity_amplitude < 0) {
+    return RejectAttribute(plugin, kVelocityAmplitude, *velocity_amplitude,
+                           "must be >= 0 (m/s), the vibration velocity amplitude the table was "
+                           "made for (0: no vibration)");
+  }
+  return true;
+}
+
 bool AveragedConfig::FromModel(const mjModel* m, int instance, AveragedConfig* config,
                                ReadScope scope) {
   AveragedConfig c;
   LawParameters& p = c.coulomb;
-  p.law = Law::kCoulomb;
-  if (!ReadNumber(m, instance, kPlugin, kMu, 0.2, &p.friction_coefficient) ||
-      !ReadNumber(m, instance, kPlugin, kViscous, 0.0, &p.viscous) ||
-      !ReadNumber(m, instance, kPlugin, kStaticRatio, 1.0, &p.static_ratio) ||
-      !ReadNumber(m, instance, kPlugin, kStribeckVelocity, 1e-3, &p.stribeck_velocity) ||
-      !ReadNumber(m, instance, kPlugin, kVelocityAmplitude, 0.0, &c.velocity_amplitude) ||
+  if (!ReadAveragedLaw(m, instance, kPlugin, &p, &c.velocity_amplitude) ||
       !ReadNumber(m, instance, kPlugin, kAxisAngle, 0.0, &c.axis_angle)) {
     return false;
   }
-  if (p.friction_coefficient < 0) return Reject(kMu, p.friction_coefficient, "must be >= 0");
-  if (p.viscous < 0) return Reject(kViscous, p.viscous, "must be >= 0 (N s/m)");
-  if (p.static_ratio < 1) return Reject(kStaticRatio, p.static_ratio, "must be >= 1");
-  if (p.stribeck_velocity <= 0) {
-    return Reject(kStribeckVelocity, p.stribeck_velocity, "must be > 0 (m/s)");
-  }
   c.axis_cos = std::cos(c.axis_angle);
   c.axis_sin = std::sin(c.axis_angle);
-  if (c.velocity_amplitude < 0) {
-    return Reject(kVelocityAmplitude, c.velocity_amplitude,
-                  "must be >= 0 (m/s), the vibration velocity amplitude the table was made for");
-  }
   if (!ReadBool(m, instance, kPlugin, kUseCtrl, false, &c.use_ctrl)) return false;
   if (!ReadAveragedTable(m, instance, kPlugin, c.velocity_amplitude, &c.table)) return false;
   if (c.velocity_amplitude == 0 && c.use_ctrl) {

@@ -47,6 +47,11 @@ struct AveragedTable {
   void Evaluate(double xi_value, double angle_value, double* f_along, double* f_across) const;
 };
 
+// Reads and checks the averaged elements' law without vibration (rigid Coulomb: mu, viscous,
+// static_ratio, stribeck_velocity) and velocity_amplitude; records the error naming `plugin`.
+bool ReadAveragedLaw(const mjModel* m, int instance, const char* plugin, LawParameters* law,
+                     double* velocity_amplitude);
+
 // Reads and checks table_xi, table_angle, table_along, table_across (checked when
 // velocity_amplitude > 0); records the error naming `plugin` and returns false when invalid.
 bool ReadAveragedTable(const mjModel* m, int instance, const char* plugin,

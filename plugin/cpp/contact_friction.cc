@@ -70,31 +70,9 @@ bool ContactConfig::FromModelAveraged(const mjModel* m, int instance, ContactCon
                                       ReadScope scope) {
   ContactConfig c;
   c.averaged = true;
-  LawParameters& p = c.law;  // the law without vibration: rigid Coulomb
-  p.law = Law::kCoulomb;
   const char* plugin = kAveragedPlugin;
-  if (!ReadNumber(m, instance, plugin, kMu, 0.2, &p.friction_coefficient) ||
-      !ReadNumber(m, instance, plugin, kViscous, 0.0, &p.viscous) ||
-      !ReadNumber(m, instance, plugin, kStaticRatio, 1.0, &p.static_ratio) ||
-      !ReadNumber(m, instance, plugin, kStribeckVelocity, 1e-3, &p.stribeck_velocity) ||
-      !ReadNumber(m, instance, plugin, kVelocityAmplitude, 0.0, &c.velocity_amplitude)) {
-    return false;
-  }
-  if (p.friction_coefficient < 0) {
-    return RejectAttribute(plugin, kMu, p.friction_coefficient, "must be >= 0");
-  }
-  if (p.viscous < 0) return RejectAttribute(plugin, kViscous, p.viscous, "must be >= 0 (N s/m)");
-  if (p.static_ratio < 1) {
-    return RejectAttribute(plugin, kStaticRatio, p.static_ratio, "must be >= 1");
-  }
-  if (p.stribeck_velocity <= 0) {
-    return RejectAttribute(plugin, kStribeckVelocity, p.stribeck_velocity, "must be > 0 (m/s)");
-  }
-  if (c.velocity_amplitude < 0) {
-    return RejectAttribute(plugin, kVelocityAmplitude, c.velocity_amplitude,
-                           "must be >= 0 (m/s), the vibration velocity amplitude the table was "
-                           "made for (0: no vibration)");
-  }
+  // the law without vibration (rigid Coulomb) and the table's amplitude, as vibrofriction.averaged
+  if (!ReadAveragedLaw(m, instance, plugin, &c.law, &c.velocity_amplitude)) return false;
   std::vector<double> axis = {1.0, 0.0, 0.0};
   if (mj_getPluginConfig(m, instance, kAxis) && mj_getPluginConfig(m, instance, kAxis)[0]) {
     if (!ReadNumberList(m, instance, plugin, kAxis, &axis)) return false;
