@@ -54,11 +54,12 @@ def run(args: argparse.Namespace) -> int:
             contact_stiffness_N_per_m=PAPER_CONTACT_STIFFNESS_N_PER_M), overrides)
         changes.update(rig=rig, friction=friction)
     config = study_config(args.quick, **changes)
-    left_out = builtin.unavailable_variants() if args.variants is None else {}
-    if args.variants is None:
+    if args.variants is None:  # all this MuJoCo can build; the others are named later
         names = list(builtin.available_variants(builtin.VARIANTS))
+        left_out = builtin.unavailable_variants()
     else:
         names = [v.strip() for v in args.variants.split(",") if v.strip()]
+        left_out = {}
     unknown = [v for v in names if v not in builtin.VARIANTS]
     if unknown:
         raise ParameterError(f"unknown variant(s) {', '.join(unknown)}; use: "
