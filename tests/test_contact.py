@@ -330,7 +330,8 @@ def test_the_contact_sensor_reports_the_force_the_element_applies():
     np.testing.assert_allclose(-sensor[0:3], 1e9 * sensor[4:7], rtol=1e-9, atol=1e-15)
     assert sensor[8] == pytest.approx(GRAVITY, rel=1e-2)
     assert sensor[9] < 1e-6  # held: no sliding
-    with pytest.raises(ValueError, match="has no vibrofriction.contact or contact_averaged element"):
+    with pytest.raises(ValueError,
+                       match="has no vibrofriction.contact, contact_averaged or contact_feeder"):
         mujoco.MjModel.from_xml_string(text.replace('value="part"/></plugin></sensor>',
                                                     'value="plate"/></plugin></sensor>'))
 

@@ -24,9 +24,11 @@ CPP = ROOT / "plugin" / "cpp"
 # friction key the C++ adds or drops and the table does not is a failure, not an own key.
 ELEMENT_SOURCES = {"friction": "friction_element.cc", "planar": "planar_friction.cc",
                    "contact": "contact_friction.cc", "averaged": "averaged_friction.cc",
-                   "contact_averaged": "contact_friction.cc"}
+                   "contact_averaged": "contact_friction.cc",
+                   "contact_feeder": "contact_friction.cc"}
 # The name of each element's attribute array in its source (two plugins share contact's).
-ATTRIBUTE_ARRAYS = {"contact_averaged": "kAveragedAttributes"}
+ATTRIBUTE_ARRAYS = {"contact_averaged": "kAveragedAttributes",
+                    "contact_feeder": "kFeederAttributes"}
 NORMAL_LOAD_KEYS = {"normal", "normal_sensor", "normal_gain", "normal_component",
                     "contact_geom1", "contact_geom2"}
 OWN_KEYS = {
@@ -37,6 +39,7 @@ OWN_KEYS = {
                  "table_angle", "table_along", "table_across"},
     "contact_averaged": {"support", "torsion_radius", "velocity_amplitude", "axis", "table_xi",
                          "table_angle", "table_along", "table_across"},
+    "contact_feeder": {"support", "torsion_radius", "axis", "map_velocity", "map_force"},
 }
 TABLE_KEYS = {term.mjcf_key for term in FRICTION_TERMS}
 

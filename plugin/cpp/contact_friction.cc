@@ -30,6 +30,13 @@ const char* const kAveragedAttributes[] = {
     kMu, kViscous, kStaticRatio, kStribeckVelocity, kSupport, kTorsionRadius, kVelocityAmplitude,
     kAxis, kTableXi, kTableAngle, kTableAlong, kTableAcross};
 
+constexpr char kFeederPlugin[] = "vibrofriction.contact_feeder";
+constexpr char kMapVelocity[] = "map_velocity";
+constexpr char kMapForce[] = "map_force";
+// Parts on a vibratory feeder at robot timesteps: the feeder map of vibrofriction.feeder_map.
+const char* const kFeederAttributes[] = {kMu, kSupport, kTorsionRadius, kAxis, kMapVelocity,
+                                         kMapForce};
+
 // condim of the contacts MuJoCo makes between geoms g1 and g2 (an explicit <pair>, else the
 // geoms' priority, else the larger condim), or 0 when contype/conaffinity exclude the pair.
 int PairCondim(const mjModel* m, int g1, int g2) {
@@ -73,6 +80,72 @@ bool ContactConfig::FromModelAveraged(const mjModel* m, int instance, ContactCon
   const char* plugin = kAveragedPlugin;
   // the law without vibration (rigid Coulomb) and the table's amplitude, as vibrofriction.averaged
   if (!ReadAveragedLaw(m, instance, plugin, &c.law, &c.velocity_amplitude)) return false;
+  if (!c.ReadAxis(m, instance, plugin)) return false;
+  if (!ReadAveragedTable(m, instance, plugin, c.velocity_amplitude, &c.table)) return false;
+  if (!c.ReadPair(m, instance, plugin, scope)) return false;
+  *config = std::move(c);
+  return true;
+}
+
+bool ContactConfig::FromModelFeeder(const mjModel* m, int instance, ContactConfig* config,
+                                    ReadScope scope) {
+  ContactConfig c;
+  c.feeder = true;
+  const char* plugin = kFeederPlugin;
+  c.law.law = Law::kCoulomb;  // across and in spin: rigid Coulomb (no vibration there)
+  if (!ReadNumber(m, instance, plugin, kMu, c.law.friction_coefficient,
+                  &c.law.friction_coefficient)) {
+    return false;
+  }
+  const double mu = c.law.friction_coefficient;
+  if (!(mu > 0)) {
+    return RejectAttribute(plugin, kMu, mu, "must be > 0: the part's friction coefficient on the "
+                           "track, the one its map was made with");
+  }
+  if (!c.ReadAxis(m, instance, plugin)) return false;
+  for (const char* key : {kMapVelocity, kMapForce}) {
+    const char* text = mj_getPluginConfig(m, instance, key);
+    if (!text || !text[0]) {
+      return ConfigError("%s: attribute '%s' is required: the feeder map, written by "
+                         "vibrofriction.feeder_map (FeederMap.contact_config)", plugin, key);
+    }
+  }
+  if (!ReadNumberList(m, instance, plugin, kMapVelocity, &c.map_velocity) ||
+      !ReadNumberList(m, instance, plugin, kMapForce, &c.map_force)) {
+    return false;
+  }
+  const std::size_t n = c.map_velocity.size();
+  if (n < 2 || c.map_force.size() != n) {
+    return ConfigError("%s: 'map_velocity' and 'map_force' need the same number of values, at "
+                       "least 2 (they have %zu and %zu)", plugin, n, c.map_force.size());
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    // Velocities increase, or repeat where the force steps down (a static band: the part
+    // stuck); forces never increase. So the end-of-step velocity has one solution, and a faster
+    // part is never pushed harder.
+    if (k > 0 && !(c.map_velocity[k] > c.map_velocity[k - 1] ||
+                   (c.map_velocity[k] == c.map_velocity[k - 1] &&
+                    c.map_force[k] < c.map_force[k - 1]))) {
+      return ConfigError("%s: 'map_velocity' must increase (value %zu, %g, follows %g; an equal "
+                         "value needs a smaller force: a static band)", plugin, k + 1,
+                         c.map_velocity[k], c.map_velocity[k - 1]);
+    }
+    if (k > 0 && c.map_force[k] > c.map_force[k - 1]) {
+      return ConfigError("%s: 'map_force' must not increase with the velocity (value %zu, %g, "
+                         "follows %g)", plugin, k + 1, c.map_force[k], c.map_force[k - 1]);
+    }
+    if (!(std::fabs(c.map_force[k]) <= mu * (1 + 1e-9))) {
+      return ConfigError("%s: 'map_force' value %zu, %g, exceeds mu = %g: the mean friction "
+                         "over F_N cannot; was the map made with another mu?", plugin, k + 1,
+                         c.map_force[k], mu);
+    }
+  }
+  if (!c.ReadPair(m, instance, plugin, scope)) return false;
+  *config = std::move(c);
+  return true;
+}
+
+bool ContactConfig::ReadAxis(const mjModel* m, int instance, const char* plugin) {
   std::vector<double> axis = {1.0, 0.0, 0.0};
   if (mj_getPluginConfig(m, instance, kAxis) && mj_getPluginConfig(m, instance, kAxis)[0]) {
     if (!ReadNumberList(m, instance, plugin, kAxis, &axis)) return false;
@@ -83,10 +156,7 @@ bool ContactConfig::FromModelAveraged(const mjModel* m, int instance, ContactCon
     return ConfigError("%s: attribute 'axis' needs 3 numbers, not all 0: the vibration direction "
                        "in the support body's frame (default \"1 0 0\")", plugin);
   }
-  for (int i = 0; i < 3; ++i) c.axis_local[i] = axis[i] / length;
-  if (!ReadAveragedTable(m, instance, plugin, c.velocity_amplitude, &c.table)) return false;
-  if (!c.ReadPair(m, instance, plugin, scope)) return false;
-  *config = std::move(c);
+  for (int i = 0; i < 3; ++i) axis_local[i] = axis[i] / length;
   return true;
 }
 
@@ -153,6 +223,47 @@ bool ContactConfig::ReadPair(const mjModel* m, int instance, const char* plugin,
                        "contacts", plugin, BodyName(m, c.body), BodyName(m, c.support));
   }
   return true;
+}
+
+// ---- the feeder map ------------------------------------------------------------------------------
+
+void FeederMapForce(const ContactConfig& config, const LawInput& in, const double B[9],
+                    const double v[3], const double v_free[3], bool spin, double f[3]) {
+  const std::vector<double>& V = config.map_velocity;
+  const std::vector<double>& Phi = config.map_force;
+  const int n = static_cast<int>(V.size());
+  const double load = in.normal_force;
+  const double gain = std::max(B[0], 0.0) * load;  // v_a' = v_free_a + gain phi(v_a')
+  // h(x) = x - v_free_a - gain phi(x) increases (phi does not): its root is the end velocity.
+  auto h = [&](int k) { return V[k] - v_free[0] - gain * Phi[k]; };
+  double phi;
+  if (h(0) >= 0) {
+    phi = Phi[0];  // below the map: its first value holds
+  } else if (h(n - 1) <= 0) {
+    phi = Phi[n - 1];
+  } else {
+    int lo = 0, hi = n - 1;  // h(lo) < 0 < h(hi)
+    while (hi - lo > 1) {
+      const int mid = (lo + hi) / 2;
+      (h(mid) < 0 ? lo : hi) = mid;
+    }
+    const double h_lo = h(lo), h_hi = h(hi);  // linear in between
+    const double s = -h_lo / (h_hi - h_lo);
+    phi = Phi[lo] + s * (Phi[hi] - Phi[lo]);
+  }
+  f[0] = -load * phi;
+  // Across and in spin: rigid Coulomb within the rest of the cone, from the velocity the along
+  // force leaves (B's coupling).
+  LawParameters rest = config.law;
+  const double mu = config.law.friction_coefficient;
+  rest.friction_coefficient = std::sqrt(std::max(mu * mu - phi * phi, 0.0));
+  const double v2[2] = {v[1], spin ? v[2] : 0.0};
+  const double free2[2] = {v_free[1] - B[3] * f[0], spin ? v_free[2] - B[6] * f[0] : 0.0};
+  const double B2[4] = {B[4], spin ? B[5] : 0.0, spin ? B[7] : 0.0, spin ? B[8] : 0.0};
+  double f2[2];
+  VectorStickSlipForce<2>(rest, in, v2, free2, B2, f2);
+  f[1] = f2[0];
+  f[2] = spin ? f2[1] : 0.0;
 }
 
 // ---- ContactFriction -----------------------------------------------------------------------------
@@ -231,10 +342,11 @@ void ContactFriction::ImplicitForce(const mjModel* m, mjData* d, const mjtNum* s
   const double v_free[3] = {mju_dot3(ahead, t1), mju_dot3(ahead, t2), ahead[3]};
   double f3[3];
   double axis3[3] = {0, 0, 0};
-  if (velocity_amplitude > 0) {
+  if (config_->feeder || velocity_amplitude > 0) {
     // The vibration's part in the tangent plane, in (t1, t2, spin) components: the table is
     // read at that amplitude (the part along the normal is not modelled: it would modulate
-    // the load, which MuJoCo's contact carries).
+    // the load, which MuJoCo's contact carries). A feeder's map holds its throw: the axis
+    // gives only the conveying direction.
     mjtNum axis[3];
     mju_mulMatVec3(axis, d->xmat + 9 * config_->support, config_->axis_local);
     axis3[0] = mju_dot3(axis, t1);
@@ -248,7 +360,29 @@ void ContactFriction::ImplicitForce(const mjModel* m, mjData* d, const mjtNum* s
   }
   // Below 1e-9 of the table's amplitude the dither slides nothing: rigid Coulomb.
   const bool vibrating = velocity_amplitude > 1e-9 * config_->velocity_amplitude;
-  if (vibrating) {
+  if (config_->feeder) {
+    // (along, across) = R (t1, t2): a conveying axis normal to the track conveys nothing
+    if (!(std::hypot(axis3[0], axis3[1]) > 0)) axis3[0] = 1.0;
+    const double R[9] = {axis3[0], axis3[1], 0.0, -axis3[1], axis3[0], 0.0, 0.0, 0.0, 1.0};
+    double Br[9], vr[3], vfr[3], fr[3], RB[9];
+    for (int r = 0; r < 3; ++r) {
+      vr[r] = R[3 * r] * v[0] + R[3 * r + 1] * v[1] + R[3 * r + 2] * v[2];
+      vfr[r] = R[3 * r] * v_free[0] + R[3 * r + 1] * v_free[1] + R[3 * r + 2] * v_free[2];
+      for (int c = 0; c < 3; ++c) {
+        RB[3 * r + c] = R[3 * r] * B[c] + R[3 * r + 1] * B[3 + c] + R[3 * r + 2] * B[6 + c];
+      }
+    }
+    for (int r = 0; r < 3; ++r) {  // R B R'
+      for (int c = 0; c < 3; ++c) {
+        Br[3 * r + c] = RB[3 * r] * R[3 * c] + RB[3 * r + 1] * R[3 * c + 1] +
+                        RB[3 * r + 2] * R[3 * c + 2];
+      }
+    }
+    FeederMapForce(*config_, in, Br, vr, vfr, state[ContactState::kRadius] > 0, fr);
+    for (int i = 0; i < 3; ++i) {  // R' fr
+      f3[i] = R[i] * fr[0] + R[3 + i] * fr[1] + R[6 + i] * fr[2];
+    }
+  } else if (vibrating) {
     double end[3] = {v[0], v[1], v[2]};
     SolveAveragedEndVelocity<3>(config_->table, config_->law, axis3, in.normal_force,
                                 velocity_amplitude, B, v_free, end);
@@ -292,7 +426,8 @@ void ContactFriction::Compute(const mjModel* m, mjData* d, int instance) {
     const double zeta[4] = {state[0], state[1], state[2], rho * state[ContactState::kTwist]};
     VectorStateForce<4>(config_->law, in, u, zeta, f);
   } else {  // coulomb, or the averaged table
-    ImplicitForce(m, d, state, in, config_->averaged ? config_->velocity_amplitude : 0.0, u, f);
+    ImplicitForce(m, d, state, in,
+                  config_->averaged || config_->feeder ? config_->velocity_amplitude : 0.0, u, f);
     mju_copy(u_start_, u, 4);
     coulomb_applied_ = true;
   }
@@ -429,9 +564,11 @@ struct ContactSensorConfig {
     const int element = body >= 0 ? m->body_plugin[body] : -1;
     const mjpPlugin* plugin = element >= 0 ? mjp_getPluginAtSlot(m->plugin[element]) : nullptr;
     if (!plugin || (std::strcmp(plugin->name, ContactFriction::kName) != 0 &&
-                    std::strcmp(plugin->name, kAveragedPlugin) != 0)) {
-      return ConfigError("%s: body=\"%s\" has no vibrofriction.contact or contact_averaged "
-                         "element; name the body whose <plugin instance=\"..\"/> is one",
+                    std::strcmp(plugin->name, kAveragedPlugin) != 0 &&
+                    std::strcmp(plugin->name, kFeederPlugin) != 0)) {
+      return ConfigError("%s: body=\"%s\" has no vibrofriction.contact, contact_averaged or "
+                         "contact_feeder element; name the body whose <plugin instance=\"..\"/> "
+                         "is one",
                          kSensorPlugin, name);
     }
     config->element = element;
@@ -487,6 +624,14 @@ void RegisterContactPlugins() {
   plugin.attributes = kAveragedAttributes;
   SetPluginCallbacks<ContactFriction, &ContactConfig::FromModelAveraged>(&plugin);
   mjp_registerPlugin(&plugin);
+  mjpPlugin feeder;  // vibrofriction.contact_feeder: the same element with a feeder's map
+  mjp_defaultPlugin(&feeder);
+  feeder.name = kFeederPlugin;
+  feeder.capabilityflags |= mjPLUGIN_PASSIVE;
+  feeder.nattribute = sizeof(kFeederAttributes) / sizeof(kFeederAttributes[0]);
+  feeder.attributes = kFeederAttributes;
+  SetPluginCallbacks<ContactFriction, &ContactConfig::FromModelFeeder>(&feeder);
+  mjp_registerPlugin(&feeder);
   ContactSensor::RegisterPlugin();
 }
 

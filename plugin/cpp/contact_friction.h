@@ -47,15 +47,25 @@ struct ContactConfig {
   AveragedTable table;
   double velocity_amplitude = 0;            // v_a (m/s) the table was made for; 0: none
   double axis_local[3] = {1.0, 0.0, 0.0};   // vibration direction in the support's frame
+  // vibrofriction.contact_feeder: the feeder map along the axis' in-plane part (the conveying
+  // direction): the part's mean velocity relative to the support (m/s, increasing; a repeated
+  // value bounds a static band) and the mean friction on it over F_N there (non-increasing),
+  // from vibrofriction.feeder_map
+  bool feeder = false;
+  std::vector<double> map_velocity, map_force;
 
   static bool FromModel(const mjModel* m, int instance, ContactConfig* config,
                         ReadScope scope = ReadScope::kAll);
   static bool FromModelAveraged(const mjModel* m, int instance, ContactConfig* config,
                                 ReadScope scope = ReadScope::kAll);
+  static bool FromModelFeeder(const mjModel* m, int instance, ContactConfig* config,
+                              ReadScope scope = ReadScope::kAll);
 
  private:
-  // support, torsion_radius, the body, and the geoms' condim (shared by both plugins).
+  // support, torsion_radius, the body, and the geoms' condim (shared by the three plugins).
   bool ReadPair(const mjModel* m, int instance, const char* plugin, ReadScope scope);
+  // `axis` (default "1 0 0"), normalized into axis_local.
+  bool ReadAxis(const mjModel* m, int instance, const char* plugin);
 };
 
 // plugin_state layout of one instance.
@@ -115,9 +125,21 @@ class ContactFriction {
   double speed_ = 0;
 };
 
+// The feeder map's force in (along, across, spin) components, f as the element's force (the
+// body receives -f; B f is the change of velocity it takes off), from the velocity without it
+// v_free and the response B (both in those components), for normal force `load`:
+//   along   f_a = -load phi(v_a'), phi the map interpolated at the end-of-step velocity
+//           v_a' = v_free_a - B_aa f_a (solved exactly: phi is piecewise linear, non-increasing);
+//   across, spin: rigid Coulomb stick/slip within what the cone leaves,
+//           sqrt(mu^2 - phi^2) load (the conveying takes the rest).
+// `spin` false: a point contact, no spin component.
+void FeederMapForce(const ContactConfig& config, const LawInput& in, const double B[9],
+                    const double v[3], const double v_free[3], bool spin, double f[3]);
+
 // Registers vibrofriction.contact, vibrofriction.contact_averaged (the same element with the
-// vibration-averaged table, for robot timesteps) and vibrofriction.contact_sensor (config
-// `body`: the body either element is attached to).
+// vibration-averaged table, for robot timesteps), vibrofriction.contact_feeder (the same element
+// with a feeder's conveying map, for parts on a vibratory feeder at robot timesteps) and
+// vibrofriction.contact_sensor (config `body`: the body any of them is attached to).
 void RegisterContactPlugins();
 
 }  // namespace vibrofriction

@@ -146,23 +146,36 @@ class FeederMotion:
     backward_fraction: float  # slipping backwards
     periods: int              # simulated, settling included
     converged: bool           # the last two windows agreed within the tolerance
+    # the mean relative velocity over each simulated period from the start (its start-up)
+    period_velocities_m_per_s: tuple[float, ...] = ()
 
     def normalized(self, feeder: Feeder) -> float:
         """V / (A w cos beta)."""
         return self.mean_velocity_m_per_s / feeder.along_velocity_amplitude
 
 
-def convey(feeder: Feeder, *, settle_periods: int = 40, window_periods: int = 24,
+def convey(feeder: Feeder, *, push_m_per_s2: float = 0.0, start_phase_rad: float = 0.0,
+           at_rest: bool = False, settle_periods: int = 40, window_periods: int = 24,
            tolerance: float = 1e-7, max_periods: int = 4000,
            samples_per_period: int = 400) -> FeederMotion:
-    """Event-driven motion of the block starting stuck to the track (co-moving with it) at
-    t = 0. After `settle_periods`, windows of `window_periods` (24: period-2, -3, -4, -6 motions
+    """Event-driven motion of the block from t = start_phase_rad / w (the track at A sin of that
+    phase), starting stuck to the track (co-moving with it), or with `at_rest` at rest in space
+    (a part set down on the running feeder: its velocity relative to the track is minus the
+    track's). Periods count from t = 0; the first is partial when the phase is not 0. `push_m_per_s2`: a constant force per unit mass on the block along the track (a
+    pusher, a slope's pull); |push| < mu g, else the block has no periodic motion. At the
+    periodic motion the mean friction per unit mass is -push: this gives the feeder map's mean
+    force against the mean velocity (vibrofriction.feeder_map). After `settle_periods`, windows of `window_periods` (24: period-2, -3, -4, -6 motions
     average out) follow until two successive window means of the relative velocity agree within
     `tolerance` x A w cos(beta), or `max_periods` (then `converged` is False); the last
     window's mean is returned. Switching times are bracketed on `samples_per_period` points a
     period."""
     w, g, mu = feeder.omega, feeder.gravity_m_per_s2, feeder.friction_coefficient
     b = feeder.throw_angle_rad
+    push = float(push_m_per_s2)
+    if not (math.isfinite(push) and abs(push) < mu * g):
+        raise ParameterError(f"push_m_per_s2={push_m_per_s2!r} must be finite and below mu g = "
+                             f"{mu * g:.6g} m/s^2 in size: a larger push slides the block "
+                             "without end")
     along = feeder.amplitude_m * w * w * math.cos(b)    # the track's acceleration amplitudes,
     normal = feeder.amplitude_m * w * w * math.sin(b)   # along the track and across it
     period = 2 * math.pi / w
@@ -175,7 +188,7 @@ def convey(feeder: Feeder, *, settle_periods: int = 40, window_periods: int = 24
         return g - normal * math.sin(w * x)
 
     def excess(x):  # friction a stick needs beyond mu N (per unit mass)
-        return abs(along * math.sin(w * x)) - mu * load(x)
+        return abs(along * math.sin(w * x) + push) - mu * load(x)
 
     def next_lift(t0):
         """The first time after t0 where the load turns negative (closed form)."""
@@ -213,7 +226,11 @@ def convey(feeder: Feeder, *, settle_periods: int = 40, window_periods: int = 24
                 bins[kind][k] += hi - lo
             lo = hi
 
-    t, s, in_flight = 0.0, 0.0, False
+    if not (math.isfinite(start_phase_rad) and 0 <= start_phase_rad < 2 * math.pi):
+        raise ParameterError(f"start_phase_rad={start_phase_rad!r} must be in [0, 2 pi)")
+    t = start_phase_rad / w
+    s = -feeder.along_velocity_amplitude * math.cos(w * t) if at_rest else 0.0
+    in_flight = False
     events_left = 50 * samples_per_period * max_periods  # a guard, far above any real count
 
     def run_until(t_stop):
@@ -231,8 +248,8 @@ def convey(feeder: Feeder, *, settle_periods: int = 40, window_periods: int = 24
                 if land is None:
                     raise RuntimeError("feeder reference: a flight longer than 20 periods "
                                        f"(throw number {gamma:.3g})")
-                account("flight", t0, land, along, 0.0, s)
-                s_minus = _velocity(along, 0.0, w, t0, s, land)
+                account("flight", t0, land, along, push, s)
+                s_minus = _velocity(along, push, w, t0, s, land)
                 rate = -normal / w * (math.cos(w * land) - math.cos(w * t0)) - g * (land - t0)
                 impulse = -rate
                 s = 0.0 if abs(s_minus) <= mu * impulse else \
@@ -253,10 +270,10 @@ def convey(feeder: Feeder, *, settle_periods: int = 40, window_periods: int = 24
                     t = t_end
                     continue
                 # Released: it slips against the track's pull (the friction saturates).
-                direction = 1.0 if along * math.sin(w * (t + eps)) > 0 else -1.0
+                direction = 1.0 if along * math.sin(w * (t + eps)) + push > 0 else -1.0
             else:
                 direction = 1.0 if s > 0 else -1.0
-            P, Q = (along + direction * mu * normal), -direction * mu * g
+            P, Q = (along + direction * mu * normal), push - direction * mu * g
             v0, t0 = s, t
             stop = _first_root(lambda x: direction * _velocity(P, Q, w, t0, v0, x), t0,
                                t_stop, step, +1.0)
@@ -286,7 +303,8 @@ def convey(feeder: Feeder, *, settle_periods: int = 40, window_periods: int = 24
         previous = current
         periods += window_periods
     return FeederMotion(current["integral"], current["flight"], current["stick"],
-                        current["backward"], periods, converged)
+                        current["backward"], periods, converged,
+                        tuple(x / period for x in bins["integral"][:periods]))
 
 
 def flight_fraction_infinite_friction(throw_number: float) -> float:

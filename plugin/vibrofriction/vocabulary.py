@@ -23,9 +23,11 @@ from dataclasses import dataclass
 
 ALL_LAWS = ("coulomb", "dahl", "dupont", "lugre")
 # The elements whose config takes friction keys (vibrofriction.<name>) and the groups of them a
-# row names: every one; those that resolve the law in time (the averaged element's table holds
+# row names: every one; those with a velocity law of their own (the feeder's map holds its
+# velocity dependence); those that resolve the law in time (the averaged element's table holds
 # the law's shape); the 1D element alone (effects with no isotropic meaning in the plane).
-ALL_ELEMENTS = ("friction", "planar", "contact", "averaged", "contact_averaged")
+ALL_ELEMENTS = ("friction", "planar", "contact", "averaged", "contact_averaged", "contact_feeder")
+VELOCITY_LAW_ELEMENTS = ("friction", "planar", "contact", "averaged", "contact_averaged")
 RESOLVING_ELEMENTS = ("friction", "planar", "contact")
 LINE_ELEMENT_ONLY = ("friction",)
 PAPER_CONTACT_STIFFNESS_N_PER_M = 80.0e6
@@ -59,11 +61,11 @@ FRICTION_TERMS: tuple[Term, ...] = (
     Term("bristle_damping_N_s_per_m", "sigma1", "bristle_damping", "N s/m", 0.0, (0.0, 1e15),
          ("dahl", "dupont", "lugre"), RESOLVING_ELEMENTS),
     Term("viscous_N_s_per_m", "viscous", "viscous", "N s/m", 0.0, (0.0, 1e15), ALL_LAWS,
-         ALL_ELEMENTS),
+         VELOCITY_LAW_ELEMENTS),
     Term("static_ratio", "static_ratio", "static_ratio", "-", 1.0, (0.0, 1e3), ALL_LAWS,
-         ALL_ELEMENTS),
+         VELOCITY_LAW_ELEMENTS),
     Term("stribeck_velocity_m_per_s", "stribeck_velocity", "stribeck_velocity", "m/s", 1.0e-3,
-         (1e-15, 1e3), ALL_LAWS, ALL_ELEMENTS),
+         (1e-15, 1e3), ALL_LAWS, VELOCITY_LAW_ELEMENTS),
     Term("asymmetry", "asymmetry", "asymmetry", "-", 0.0, None, ALL_LAWS, LINE_ELEMENT_ONLY),
     Term("position_ripple", "ripple", "ripple", "-", 0.0, None, ALL_LAWS, LINE_ELEMENT_ONLY),
     Term("position_ripple_wavelength_m", "ripple_wavelength", "ripple_wavelength", "m", 1.0e-3,
@@ -105,5 +107,6 @@ LAW_STRUCT_FIELDS = (
     "normal_modulation_phase", "force_offset")
 
 __all__ = ["Term", "FRICTION_TERMS", "TERMS_BY_NAME", "DEFAULTS", "MJCF_KEYS", "LIMITS",
-           "LAW_STRUCT_FIELDS", "ALL_LAWS", "ALL_ELEMENTS", "RESOLVING_ELEMENTS",
+           "LAW_STRUCT_FIELDS", "ALL_LAWS", "ALL_ELEMENTS", "VELOCITY_LAW_ELEMENTS",
+           "RESOLVING_ELEMENTS",
            "LINE_ELEMENT_ONLY", "PAPER_CONTACT_STIFFNESS_N_PER_M", "element_keys"]
