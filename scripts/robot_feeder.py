@@ -1,10 +1,12 @@
 #!/usr/bin/env python3
-"""A linear vibratory feeder (100 Hz, 20 degree throw line) conveying three parts through the
-planar friction element, with and without vibration.
+"""A linear vibratory feeder (100 Hz, 20 degree throw line) conveying three parts: resolved
+(feeder.xml, the planar element at 0.1 ms and at 10 us) and at the robot's 1 ms with the feeder
+map (feeder_map.xml, vibrofriction.contact_feeder), against the exact event-driven reference.
 
-Source: mjcf_models/robots/feeder.xml, vibrofriction.robots. Writes
-docs/figures/robot_feeder.png (part trajectories; normal and friction force over a few periods)
-and docs/figures/robot_feeder_frames.png (offscreen-rendered frames; skipped with the reason
+Source: mjcf_models/robots/feeder.xml, feeder_map.xml, vibrofriction.robots. Prints each
+scene's conveying speed against the reference and its wall time per simulated second. Writes
+docs/figures/robot_feeder.png (part trajectories; normal and friction force over a few periods;
+the map) and docs/figures/robot_feeder_frames.png (offscreen-rendered frames; skipped with the reason
 when no EGL/OSMesa context can be made).
 """
 from __future__ import annotations
@@ -22,9 +24,31 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+import mujoco  # noqa: E402
+
 from vibrofriction import robots  # noqa: E402
+from vibrofriction.feeder_reference import convey  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def _resolved_at(timestep_s: float, duration_s: float) -> robots.SceneRun:
+    """feeder.xml with its timestep changed (the contact's solref stays)."""
+    spec = mujoco.MjSpec.from_file(str(robots.scene_path("feeder")))
+    spec.option.timestep = timestep_s
+    model = spec.compile()
+    nstep = int(round(duration_s / timestep_s))
+    ctrl = np.zeros((nstep, model.nu))
+    for name in ("shaker_x", "shaker_z"):
+        ctrl[:, model.actuator(name).id] = 1.0
+    return robots.run_scene(model, ctrl, keep_every=max(1, int(round(1e-4 / timestep_s))))
+
+
+def _speed(run: robots.SceneRun, duration: float) -> float:
+    """The parts' mean conveying speed over the second half (m/s)."""
+    late = run.time_s >= duration / 2
+    return float(np.mean([np.polyfit(run.time_s[late], run.sensor(f"{p}_position")[late, 0], 1)[0]
+                          for p in robots.FEEDER_PARTS]))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -35,30 +59,55 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     duration = 1.0 if args.quick else 3.0
     runs = {v: robots.run_feeder(vibration=v, duration_s=duration) for v in (True, False)}
-    for vibration, run in runs.items():
+    fine = _resolved_at(1e-5, duration)
+    mapped = robots.run_feeder(mode="map", duration_s=duration)
+    for run in (*runs.values(), fine, mapped):
         if run.warnings:
             print(f"MuJoCo warnings: {run.warnings}", file=sys.stderr)
             return 1
+    feeder_map = robots.feeder_map()
+    feeder = robots.FEEDER
+    exact = feeder_map.conveying_velocity_m_per_s
     on = runs[True]
     t = on.time_s
-    half = t >= duration / 2
-    print(f"{'part':>6} {'conveying speed, vibration (mm/s)':>34} {'drift, no vibration (mm)':>25}")
-    for part in robots.FEEDER_PARTS:
-        x = on.sensor(f"{part}_position")[:, 0]
-        speed = np.polyfit(t[half], x[half], 1)[0]
-        still = runs[False].sensor(f"{part}_position")[:, 0]
-        print(f"{part:>6} {speed * 1e3:34.2f} {(still[-1] - still[0]) * 1e3:25.2e}")
-    print(f"wall per simulated second: {on.wall_s / duration:.3f} s (dt = {on.model.opt.timestep:g} s)")
+    print(f"exact reference (vibrofriction.feeder_reference): {exact * 1e3:.4f} mm/s "
+          f"(Gamma {feeder.throw_number:.2f}, throw angle "
+          f"{np.degrees(feeder.throw_angle_rad):.0f} deg, mu {feeder.friction_coefficient})")
+    print(f"{'scene':<36} {'dt (s)':>7} {'speed (mm/s)':>12} {'vs exact':>9} "
+          f"{'wall per sim. s':>16}")
+    rows = [("feeder.xml, resolved (planar)", on), ("feeder.xml at dt 10 us", fine),
+            ("feeder_map.xml, map (contact_feeder)", mapped)]
+    for name, run in rows:
+        speed = _speed(run, duration)
+        print(f"{name:<36} {run.model.opt.timestep:7.0e} {speed * 1e3:12.4f} "
+              f"{100 * (speed / exact - 1):+8.2f}% {run.wall_s / duration:15.4f}s")
+    still = runs[False]
+    drift = max(abs(still.sensor(f"{p}_position")[-1, 0] - still.sensor(f"{p}_position")[0, 0])
+                for p in robots.FEEDER_PARTS)
+    print(f"without vibration (resolved): the parts move {drift * 1e3:.2e} mm")
+    print(f"cost, map at 1 ms over resolved at 10 us: "
+          f"{fine.wall_s / mapped.wall_s:.0f}x less wall time per simulated second "
+          "(one run each; scripts/bench_robots.py measures the cost)")
 
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.4))
-    for k, part in enumerate(robots.FEEDER_PARTS):
-        for vibration, line in ((True, "-"), (False, ":")):
-            run = runs[vibration]
-            x = run.sensor(f"{part}_position")[:, 0]
-            axes[0].plot(run.time_s[::10], 1e3 * x[::10], line, color=f"C{k}",
-                         label=f"{part}{'' if vibration else ', no vibration'}")
+    fig, axes = plt.subplots(1, 3, figsize=(13, 3.4))
+    motion = convey(feeder, at_rest=True)
+    period = 1 / feeder.frequency_Hz
+    ends = np.arange(1, int(duration / period) + 1) * period
+    along = feeder.amplitude_m * np.cos(feeder.throw_angle_rad)
+    # (the reference stops once settled: later periods convey at its mean velocity)
+    per_period = np.full(ends.size, motion.mean_velocity_m_per_s)
+    ran = min(ends.size, len(motion.period_velocities_m_per_s))
+    per_period[:ran] = motion.period_velocities_m_per_s[:ran]
+    reference = np.cumsum(per_period) * period + along * np.sin(feeder.omega * ends)
+    axes[0].plot(ends, 1e3 * reference, color="k", lw=3, alpha=0.3,
+                 label="exact reference (period ends)")
+    for run, label, style in ((on, "resolved, dt 0.1 ms", "C0-"), (fine, "resolved, dt 10 us",
+                                                                     "C2--"),
+                              (mapped, "map, dt 1 ms", "C3:"), (still, "no vibration", "C7-")):
+        x = run.sensor("part1_position")[:, 0]
+        axes[0].plot(run.time_s, 1e3 * (x - x[0]), style, label=label)
     axes[0].set_xlabel("time (s)")
-    axes[0].set_ylabel("part x along the track (mm)")
+    axes[0].set_ylabel("part1 travel along the track (mm)")
     axes[0].legend(fontsize=7)
     window = (t >= duration - 0.03)
     state = on.sensor("part1_friction")
@@ -68,8 +117,17 @@ def main(argv: list[str] | None = None) -> int:
                  state[window, 0] / (0.3 * weight), label="F_x / (mu m g)")
     axes[1].plot(1e3 * (t[window] - t[window][0]), on.sensor("track_x")[window] / 5.09e-5,
                  label="track x / u0 cos(beta)", color="0.6")
-    axes[1].set_xlabel("time (ms), last 3 periods")
+    axes[1].set_xlabel("time (ms), last 3 periods, resolved")
     axes[1].legend(fontsize=7, loc="lower right")
+    unit = feeder.along_velocity_amplitude
+    axes[2].plot(feeder_map.velocity_m_per_s / unit,
+                 feeder_map.force_ratio / feeder.friction_coefficient, "C3.-", ms=3)
+    axes[2].axhline(0, color="0.7", lw=0.8)
+    axes[2].plot([exact / unit], [0], "ko", label="conveying velocity")
+    axes[2].set_xlabel("part's mean velocity on the track / (A w cos beta)")
+    axes[2].set_ylabel("mean friction / (mu m g)")
+    axes[2].set_title("the feeder map (from the exact reference)", fontsize=9)
+    axes[2].legend(fontsize=7)
     fig.suptitle("Vibratory feeder, 100 Hz, throw angle 20 deg, Gamma = 0.7", fontsize=10)
     fig.tight_layout()
     path = args.out / "robot_feeder.png"

@@ -144,6 +144,67 @@ def test_feeder_conveys_only_with_vibration():
         assert state[t > 0.5, 6].max() > 1.5 * weight  # the normal load follows the throw
 
 
+def test_the_feeder_map_file_is_made_from_the_feeder_scene():
+    """feeder_map_table.xml is what scripts/robot_tables.py makes now, from the track motion and
+    friction of feeder.xml."""
+    fresh = _instances(robots.table_files()["feeder_map_table.xml"])
+    committed = _instances((robots.ROBOTS_DIR / "feeder_map_table.xml").read_text())
+    assert list(fresh) == list(committed) == [f"{p}_friction" for p in robots.FEEDER_PARTS]
+    for name, config in fresh.items():
+        assert config.keys() == committed[name].keys()
+        for key in ("mu", "support", "axis", "torsion_radius"):
+            assert config[key] == committed[name][key], key
+        for key in ("map_velocity", "map_force"):
+            # reference means over whole periods, switching times to 1e-15 s: a new machine
+            # changes the last digits only
+            a, b = (np.array(c[key].split(), dtype=float) for c in (config, committed[name]))
+            assert a.shape == b.shape, key
+            np.testing.assert_allclose(b, a, rtol=0, atol=1e-9 * np.max(np.abs(a)), err_msg=key)
+    spec = mujoco.MjSpec.from_file(str(robots.scene_path("feeder")))
+    configs = {p.name: dict(p.config) for p in spec.plugins}
+    feeder = robots.FEEDER
+    along = float(configs["shaker_x"]["velocity_amplitude"])
+    normal = float(configs["shaker_z"]["velocity_amplitude"])
+    assert math.hypot(along, normal) == pytest.approx(feeder.amplitude_m * feeder.omega,
+                                                      rel=1e-4)
+    assert math.atan2(normal, along) == pytest.approx(feeder.throw_angle_rad, rel=1e-4)
+    assert float(configs["shaker_x"]["frequency"]) == feeder.frequency_Hz
+    assert float(configs["part0_friction"]["mu"]) == feeder.friction_coefficient
+
+
+def _instances(text: str) -> dict[str, dict[str, str]]:
+    return {name: dict(re.findall(r'<config key="([^"]+)" value="([^"]*)"/>', body))
+            for name, body in re.findall(r'<instance name="([^"]+)">(.*?)</instance>', text,
+                                         re.S)}
+
+
+def test_the_feeder_at_robot_timesteps_conveys_at_the_exact_velocity():
+    """feeder_map.xml (free parts, still track, 1 ms) against the exact reference; feeder.xml's
+    resolved run approaches it as its step shrinks (MuJoCo's soft contact keeps it about 2 %
+    off at 10 us, docs/physics.md)."""
+    exact = robots.feeder_map().conveying_velocity_m_per_s
+    mapped = robots.run_feeder(mode="map", duration_s=1.0)
+    assert not mapped.warnings
+    late = mapped.time_s > 0.5
+    for part in robots.FEEDER_PARTS:
+        x = mapped.sensor(f"{part}_position")[:, 0]
+        assert np.polyfit(mapped.time_s[late], x[late], 1)[0] == pytest.approx(exact, rel=1e-3)
+    errors = {}
+    for timestep in (1e-4, 1e-5):
+        spec = mujoco.MjSpec.from_file(str(robots.scene_path("feeder")))
+        spec.option.timestep = timestep
+        model = spec.compile()
+        nstep = int(round(0.6 / timestep))
+        ctrl = np.ones((nstep, model.nu)) * [model.actuator(i).name.startswith("shaker")
+                                             for i in range(model.nu)]
+        run = robots.run_scene(model, ctrl)
+        late = run.time_s > 0.3
+        x = run.sensor("part1_position")[:, 0]
+        errors[timestep] = np.polyfit(run.time_s[late], x[late], 1)[0] / exact - 1
+    assert abs(errors[1e-5]) < 0.03
+    assert abs(errors[1e-5]) < abs(errors[1e-4]) / 3
+
+
 _RENDER = """
 import sys
 from vibrofriction import robots
