@@ -265,6 +265,17 @@ def test_interfaces_docs_key_paragraph_names_the_keys_the_element_takes(element:
     assert mentioned == takes, f"missing: {takes - mentioned}; not taken: {mentioned - takes}"
 
 
+@pytest.mark.parametrize("element", ["contact_averaged", "contact_feeder"])
+def test_interfaces_docs_drop_in_paragraph_names_the_keys_the_element_takes(element: str) -> None:
+    text = (ROOT / "docs" / "interfaces.md").read_text()
+    start = text.index(f"`vibrofriction.{element}`: keys")
+    paragraph = text[start:].split("\n\n")[0]
+    known = TABLE_KEYS.union(*OWN_KEYS.values())
+    mentioned = set(_backticked(paragraph)) & known
+    takes = OWN_KEYS[element] | set(element_keys(element).values())
+    assert mentioned == takes, f"missing: {takes - mentioned}; not taken: {mentioned - takes}"
+
+
 def test_interfaces_docs_averaged_key_table_names_the_keys_the_element_takes() -> None:
     section = _md_section((ROOT / "docs" / "interfaces.md").read_text(),
                           "### `vibrofriction.averaged`")

@@ -103,6 +103,78 @@ def _feeder_map_file() -> str:
         f"{instances}\n    </plugin>\n  </extension>\n</mujoco>\n")
 
 
+def feeder_plate_scene(parts: int, *, mode: str = "map", timestep_s: float | None = None,
+                       feeder_map_: FeederMap | None = None) -> str:
+    """MJCF of a flexible-feeder plate with ``parts`` free parts (FEEDER's track motion and
+    friction, 30 g 20 x 20 x 10 mm parts on a grid 30 mm apart): ``mode`` map (still plate,
+    vibrofriction.contact_feeder, dt 1 ms) or resolved (the plate vibrating along the throw
+    line through two vibrofriction.motion shakers, vibrofriction.contact Coulomb, dt 10 us).
+    For scripts/bench_robots.py and the feeder tests."""
+    if mode not in ("map", "resolved"):
+        raise ParameterError(f"unknown feeder mode {mode!r}; use map or resolved")
+    if not (isinstance(parts, int) and parts >= 1):
+        raise ParameterError(f"parts={parts!r} must be a positive integer")
+    f = FEEDER
+    timestep = timestep_s if timestep_s is not None else (1e-3 if mode == "map" else 1e-5)
+    columns = math.ceil(math.sqrt(parts))
+    rows = math.ceil(parts / columns)
+    names = [f"part{k}" for k in range(parts)]
+    instances, bodies = [], []
+    for k, name in enumerate(names):
+        x = -0.03 * (columns - 1) / 2 + 0.03 * (k % columns)
+        y = -0.03 * (rows - 1) / 2 + 0.03 * (k // columns)
+        # resting on the plate (its top at z = 5 mm), 0.1 mm into it
+        bodies.append(f'    <body name="{name}" pos="{x:.4f} {y:.4f} 0.0099">\n'
+                      f'      <freejoint/>\n      <geom name="{name}" class="part"/>\n'
+                      f'      <plugin instance="{name}_friction"/>\n    </body>')
+        if mode == "map":
+            instances.append((feeder_map_ or feeder_map()).mjcf_instance(
+                f"{name}_friction", "plate", torsion_radius_m=FEEDER_PART_TORSION_RADIUS_M))
+        else:
+            instances.append(
+                f'<instance name="{name}_friction">\n  <config key="law" value="coulomb"/>\n'
+                f'  <config key="mu" value="{f.friction_coefficient!r}"/>\n'
+                f'  <config key="support" value="plate"/>\n'
+                f'  <config key="torsion_radius" value="{FEEDER_PART_TORSION_RADIUS_M!r}"/>\n'
+                '</instance>')
+    element = "contact_feeder" if mode == "map" else "contact"
+    half_x = max(0.1, 0.015 * columns + 0.05)
+    half_y = max(0.05, 0.015 * rows + 0.02)
+    if mode == "map":
+        plate = (f'    <body name="plate">\n      <geom name="plate" type="box" '
+                 f'size="{half_x:.3f} {half_y:.3f} 0.005" condim="1"/>\n    </body>')
+        shakers = actuators = ""
+    else:
+        v_a = f.amplitude_m * f.omega
+        plate = (f'    <body name="plate">\n'
+                 '      <joint name="plate_x" type="slide" axis="1 0 0" armature="1e5"/>\n'
+                 '      <joint name="plate_z" type="slide" axis="0 0 1" armature="1e5"/>\n'
+                 f'      <geom name="plate" type="box" size="{half_x:.3f} {half_y:.3f} 0.005" '
+                 'condim="1" mass="3"/>\n    </body>')
+        shakers = "".join(
+            f'    <plugin plugin="vibrofriction.motion">\n      <instance name="shaker_{axis}">\n'
+            f'        <config key="frequency" value="{f.frequency_Hz!r}"/>\n'
+            f'        <config key="velocity_amplitude" value="{v_a * component!r}"/>\n'
+            '      </instance>\n    </plugin>\n'
+            for axis, component in (("x", math.cos(f.throw_angle_rad)),
+                                    ("z", math.sin(f.throw_angle_rad))))
+        actuators = ('  <actuator>\n'
+                     '    <plugin name="shaker_x" joint="plate_x" instance="shaker_x"/>\n'
+                     '    <plugin name="shaker_z" joint="plate_z" instance="shaker_z"/>\n'
+                     '  </actuator>\n')
+    indented = "\n".join("      " + line for text in instances for line in text.splitlines())
+    return (
+        f'<mujoco model="vibrofriction flexible feeder, {parts} parts, {mode}">\n'
+        f'  <option timestep="{timestep!r}" integrator="implicitfast"/>\n'
+        f'  <extension>\n    <plugin plugin="vibrofriction.{element}">\n{indented}\n'
+        f'    </plugin>\n{shakers}  </extension>\n'
+        '  <default>\n    <default class="part">\n'
+        f'      <geom type="box" size="0.01 0.01 0.005" mass="{FEEDER_PART_MASS_KG!r}" '
+        'condim="1" solref="0.001 1"/>\n    </default>\n  </default>\n'
+        f'  <worldbody>\n{plate}\n' + "\n".join(bodies) + '\n  </worldbody>\n'
+        f'{actuators}</mujoco>\n')
+
+
 def table_files() -> dict[str, str]:
     """Generated include files of the averaged scenes: {file name: MJCF text}."""
     table = plate_push_table()
@@ -345,7 +417,7 @@ def render_frames(run: SceneRun, times_s, *, camera: str = "overview", height: i
 __all__ = [
     "FEEDER", "FEEDER_PARTS", "FEEDER_PART_MASS_KG", "FEEDER_PART_TORSION_RADIUS_M",
     "PART_MASS_KG", "PLATE_PART_FRICTION", "PLATE_VIBRATION", "PushPlan", "RenderingUnavailable",
-    "SCENES", "SceneRun", "feeder_map", "initial_state", "load_model", "make_renderer",
+    "SCENES", "SceneRun", "feeder_map", "feeder_plate_scene", "initial_state", "load_model", "make_renderer",
     "plate_push_table", "push_controls", "render_frames", "run_feeder", "run_push", "run_scene",
     "scara_ik", "scene_path", "table_files",
 ]
