@@ -9,8 +9,8 @@ vibrating through two `vibrofriction.motion` shakers, each part with `vibrofrict
 rigid Coulomb. For each part count: the CPU time of the stepping thread per simulated second
 (one mj_step loop, best of `--rounds`), its growth per part, and the parts' mean conveying
 speed against the exact reference (vibrofriction.feeder_reference). MuJoCo's soft contact, not
-the element, sets the resolved run's error (docs/physics.md). Not a test: the ratios are the
-result.
+the element, sets the resolved run's error (docs/physics.md). Writes the cost against the parts
+to docs/figures/robot_scaling.png (--out). Not a test: the ratios are the result.
 
     .venv/bin/python scripts/bench_robots.py [--parts 1 5 10 25 50] [--rounds 2] [--quick]
 """
@@ -18,12 +18,19 @@ from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
+import matplotlib
 import mujoco
 import numpy as np
 
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
 import vibrofriction
 from vibrofriction import robots
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _run(xml: str, duration_s: float, rounds: int) -> tuple[float, float, dict[str, int]]:
@@ -53,6 +60,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--quick", action="store_true",
                         help="shorter runs (0.4 s map, 0.05 s resolved): costs only roughly")
+    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "figures")
     args = parser.parse_args(argv)
     if any(n < 1 for n in args.parts) or args.rounds < 1:
         parser.error("--parts and --rounds need positive integers")
@@ -83,6 +91,21 @@ def main(argv: list[str] | None = None) -> int:
             per_part = (rows[-1][k] - rows[0][k]) / (rows[-1][0] - rows[0][0])
             print(f"{label}: cost grows as parts^{slope:.2f}; {per_part * 1e3:.2f} ms CPU per "
                   "simulated second per added part")
+        fig, ax = plt.subplots(figsize=(5, 3.4))
+        parts = [r[0] for r in rows]
+        ax.loglog(parts, [r[2] for r in rows], "o--", label="resolved: contact, plate vibrating, dt 10 us")
+        ax.loglog(parts, [r[1] for r in rows], "s-", label="feeder map: contact_feeder, dt 1 ms")
+        ax.axhline(1.0, color="0.6", lw=0.8)
+        ax.text(parts[0], 1.15, "real time", fontsize=7, color="0.4")
+        ax.set_xlabel("parts on the feeder plate")
+        ax.set_ylabel("CPU s per simulated s")
+        ax.legend(fontsize=7)
+        ax.set_title("Flexible feeder, 100 Hz, Gamma 0.7 (scripts/bench_robots.py)", fontsize=8)
+        fig.tight_layout()
+        args.out.mkdir(parents=True, exist_ok=True)
+        path = args.out / "robot_scaling.png"
+        fig.savefig(path, dpi=80)
+        print(f"wrote {path}")
     return 0
 
 

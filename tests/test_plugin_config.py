@@ -442,7 +442,7 @@ def test_info_reads_every_plugin_and_its_attributes_from_mujocos_registry(tmp_pa
     assert payload["versions"]["mujoco"] == mujoco.__version__
     plugins = {p["name"]: p for p in payload["plugins"]}
     assert set(plugins) == {f"vibrofriction.{n}" for n in (
-        "friction", "motion", "planar", "averaged", "contact", "contact_averaged",
+        "friction", "motion", "planar", "averaged", "contact", "contact_averaged", "contact_feeder",
         "friction_sensor", "planar_sensor", "contact_sensor", "lagged_tendon", "sampled_pd")}
     assert plugins["vibrofriction.friction"]["kinds"] == ["actuator"]
     assert plugins["vibrofriction.contact"]["kinds"] == ["passive"]
