@@ -28,22 +28,24 @@ bool Reject(const char* attr, double value, const char* rule) {
   return RejectAttribute(kPlugin, attr, value, rule);
 }
 
-// Index i with grid[i] <= x < grid[i+1] (clamped to the last cell) and the weight of i+1.
-void Locate(const std::vector<double>& grid, double x, int* index, double* weight) {
+// Index i with grid[i] <= x < grid[i+1] (clamped to the last cell) and the weight of i+1;
+// returns d weight / dx: one-sided at the grid's ends, 0 beyond them (clamped).
+double Locate(const std::vector<double>& grid, double x, int* index, double* weight) {
   const int n = static_cast<int>(grid.size());
   if (x <= grid[0]) {
     *index = 0;
     *weight = 0.0;
-    return;
+    return x == grid[0] ? 1.0 / (grid[1] - grid[0]) : 0.0;
   }
   if (x >= grid[n - 1]) {
     *index = n - 2;
     *weight = 1.0;
-    return;
+    return x == grid[n - 1] ? 1.0 / (grid[n - 1] - grid[n - 2]) : 0.0;
   }
   const int i = static_cast<int>(std::upper_bound(grid.begin(), grid.end(), x) - grid.begin()) - 1;
   *index = i;
   *weight = (x - grid[i]) / (grid[i + 1] - grid[i]);
+  return 1.0 / (grid[i + 1] - grid[i]);
 }
 
 }  // namespace
@@ -72,6 +74,66 @@ void AveragedVectorForce(const AveragedTable& table, const LawParameters& law,
 }
 
 template <int N>
+bool AveragedVectorForceJacobian(const AveragedTable& table, const LawParameters& law,
+                                 const double axis[N], const double u[N], double normal_force,
+                                 double velocity_amplitude, double force[N],
+                                 double jacobian[N * N]) {
+  double along = 0.0;
+  for (int i = 0; i < N; ++i) along += axis[i] * u[i];
+  double e[N], across = 0.0;  // e: the unit vector of u's part across the axis
+  for (int i = 0; i < N; ++i) {
+    e[i] = u[i] - along * axis[i];
+    across += e[i] * e[i];
+  }
+  across = std::sqrt(across);
+  const double r2 = along * along + across * across, r = std::sqrt(r2);
+  if (!(r > 1e-12 * velocity_amplitude)) return false;
+  const double level = law.friction_coefficient * std::max(normal_force, 0.0);
+  if (!(across > 1e-9 * r)) {
+    // Along the axis (angle 0 or pi, where the across part vanishes): f_across / across tends
+    // to (d across/d angle) / along in every direction across, so dF/du = level (axis
+    // (d along/d xi) d xi/du' + (d across/d angle) / along (I - axis axis')) + sigma2 I; the
+    // along part's kink across the axis (|angle| in a bilinear cell) is taken flat.
+    const double angle = along > 0 ? 0.0 : kPi;
+    double f_along, f_across, slope[4];
+    table.Evaluate(r / velocity_amplitude, angle, &f_along, &f_across, slope);
+    const double sign = along > 0 ? 1.0 : -1.0;
+    const double bend = slope[3] / along;
+    for (int i = 0; i < N; ++i) {
+      force[i] = level * f_along * axis[i] + law.viscous * u[i];
+      for (int j = 0; j < N; ++j) {
+        jacobian[N * i + j] = level * (axis[i] * slope[0] * sign * axis[j] / velocity_amplitude +
+                                       bend * ((i == j) - axis[i] * axis[j])) +
+                              law.viscous * (i == j);
+      }
+    }
+    return true;
+  }
+  for (int i = 0; i < N; ++i) e[i] /= across;
+  const double xi = r / velocity_amplitude, angle = std::atan2(across, along);
+  double f_along, f_across, slope[4];
+  table.Evaluate(xi, angle, &f_along, &f_across, slope);
+  // d xi/du = u / (r v_a); d angle/du = (along e - across axis) / r^2
+  double d_xi[N], d_angle[N];
+  for (int j = 0; j < N; ++j) {
+    d_xi[j] = u[j] / (r * velocity_amplitude);
+    d_angle[j] = (along * e[j] - across * axis[j]) / r2;
+  }
+  const double bend = f_across / across;  // d e/du = (I - axis axis' - e e') / across
+  for (int i = 0; i < N; ++i) {
+    force[i] = level * (f_along * axis[i] + f_across * e[i]) + law.viscous * u[i];
+    for (int j = 0; j < N; ++j) {
+      const double grad_along = slope[0] * d_xi[j] + slope[1] * d_angle[j];
+      const double grad_across = slope[2] * d_xi[j] + slope[3] * d_angle[j];
+      const double projector = (i == j) - axis[i] * axis[j] - e[i] * e[j];
+      jacobian[N * i + j] = level * (axis[i] * grad_along + e[i] * grad_across +
+                                     bend * projector) + law.viscous * (i == j);
+    }
+  }
+  return true;
+}
+
+template <int N>
 void SolveAveragedEndVelocity(const AveragedTable& table, const LawParameters& law,
                               const double axis[N], double normal_force,
                               double velocity_amplitude, const double B[N * N],
@@ -95,14 +157,25 @@ void SolveAveragedEndVelocity(const AveragedTable& table, const LawParameters& l
   residual(u, r);
   double r_norm = norm(r);
   for (int iter = 0; iter < 50 && r_norm > tolerance; ++iter) {
-    const double h = 1e-7 * (velocity_amplitude + norm(u));
-    double J[N * N];
-    for (int col = 0; col < N; ++col) {
-      double up[N], rp[N];
-      for (int i = 0; i < N; ++i) up[i] = u[i];
-      up[col] += h;
-      residual(up, rp);
-      for (int i = 0; i < N; ++i) J[N * i + col] = (rp[i] - r[i]) / h;
+    double J[N * N], force[N], dF[N * N];
+    if (AveragedVectorForceJacobian<N>(table, law, axis, u, normal_force, velocity_amplitude,
+                                       force, dF)) {
+      for (int i = 0; i < N; ++i) {  // dR/du = I + B dF/du
+        for (int j = 0; j < N; ++j) {
+          double sum = (i == j);
+          for (int k = 0; k < N; ++k) sum += B[N * i + k] * dF[N * k + j];
+          J[N * i + j] = sum;
+        }
+      }
+    } else {  // along the axis or at rest: a forward difference across the kink
+      const double h = 1e-7 * (velocity_amplitude + norm(u));
+      for (int col = 0; col < N; ++col) {
+        double up[N], rp[N];
+        for (int i = 0; i < N; ++i) up[i] = u[i];
+        up[col] += h;
+        residual(up, rp);
+        for (int i = 0; i < N; ++i) J[N * i + col] = (rp[i] - r[i]) / h;
+      }
     }
     double step[N], minus_r[N];
     for (int i = 0; i < N; ++i) minus_r[i] = -r[i];
@@ -130,6 +203,12 @@ template void AveragedVectorForce<2>(const AveragedTable&, const LawParameters&,
                                      const double*, double, double, double*);
 template void AveragedVectorForce<3>(const AveragedTable&, const LawParameters&, const double*,
                                      const double*, double, double, double*);
+template bool AveragedVectorForceJacobian<2>(const AveragedTable&, const LawParameters&,
+                                             const double*, const double*, double, double,
+                                             double*, double*);
+template bool AveragedVectorForceJacobian<3>(const AveragedTable&, const LawParameters&,
+                                             const double*, const double*, double, double,
+                                             double*, double*);
 template void SolveAveragedEndVelocity<2>(const AveragedTable&, const LawParameters&,
                                           const double*, double, double, const double*,
                                           const double*, double*);
@@ -138,19 +217,25 @@ template void SolveAveragedEndVelocity<3>(const AveragedTable&, const LawParamet
                                           const double*, double*);
 
 void AveragedTable::Evaluate(double xi_value, double angle_value, double* f_along,
-                             double* f_across) const {
+                             double* f_across, double slopes[4]) const {
   int i, j;
   double wi, wj;
-  Locate(xi, xi_value, &i, &wi);
-  Locate(angle, angle_value, &j, &wj);
+  const double dwi = Locate(xi, xi_value, &i, &wi);
+  const double dwj = Locate(angle, angle_value, &j, &wj);
   const int n = static_cast<int>(angle.size());
-  auto blend = [&](const std::vector<double>& v) {
-    const double a = v[i * n + j] * (1 - wj) + v[i * n + j + 1] * wj;
-    const double b = v[(i + 1) * n + j] * (1 - wj) + v[(i + 1) * n + j + 1] * wj;
+  auto blend = [&](const std::vector<double>& v, double* d_xi, double* d_angle) {
+    const double v00 = v[i * n + j], v01 = v[i * n + j + 1];
+    const double v10 = v[(i + 1) * n + j], v11 = v[(i + 1) * n + j + 1];
+    const double a = v00 * (1 - wj) + v01 * wj;
+    const double b = v10 * (1 - wj) + v11 * wj;
+    if (d_xi) {
+      *d_xi = (b - a) * dwi;
+      *d_angle = ((v01 - v00) * (1 - wi) + (v11 - v10) * wi) * dwj;
+    }
     return a * (1 - wi) + b * wi;
   };
-  *f_along = blend(along);
-  *f_across = blend(across);
+  *f_along = blend(along, slopes ? &slopes[0] : nullptr, slopes ? &slopes[1] : nullptr);
+  *f_across = blend(across, slopes ? &slopes[2] : nullptr, slopes ? &slopes[3] : nullptr);
 }
 
 bool ReadAveragedTable(const mjModel* m, int instance, const char* plugin,

@@ -43,8 +43,11 @@ namespace vibrofriction {
 // vibration axis in [0, pi]. Values row-major: index i * angle.size() + j.
 struct AveragedTable {
   std::vector<double> xi, angle, along, across;
-  // Components (along, across) at xi >= 0 and angle in [0, pi].
-  void Evaluate(double xi_value, double angle_value, double* f_along, double* f_across) const;
+  // Components (along, across) at xi >= 0 and angle in [0, pi]; with `slopes`, also their
+  // derivatives in the cell (d along/d xi, d along/d angle, d across/d xi, d across/d angle;
+  // 0 in a variable clamped at the table's edge).
+  void Evaluate(double xi_value, double angle_value, double* f_along, double* f_across,
+                double slopes[4] = nullptr) const;
 };
 
 // Reads and checks the averaged elements' law without vibration (rigid Coulomb: mu, viscous,
@@ -67,9 +70,19 @@ void AveragedVectorForce(const AveragedTable& table, const LawParameters& law,
                          const double axis[N], const double u[N], double normal_force,
                          double velocity_amplitude, double force[N]);
 
+// AveragedVectorForce and its Jacobian dF/du (row-major N x N), exact within the table's cell.
+// False (nothing written) where u is along the axis or 0 to rounding: there the direction
+// across the axis is undefined and F has a kink; the caller differentiates numerically.
+template <int N>
+bool AveragedVectorForceJacobian(const AveragedTable& table, const LawParameters& law,
+                                 const double axis[N], const double u[N], double normal_force,
+                                 double velocity_amplitude, double force[N],
+                                 double jacobian[N * N]);
+
 // The end-of-step velocity u of u + B F(u) = v_free with F the averaged force (B = dt J M^-1 J',
-// row-major N x N): Newton with a forward-difference Jacobian and backtracking on |R| (the law
-// is monotone and Lipschitz, piecewise bilinear); u in: the start, out: the solution.
+// row-major N x N): Newton with the table's exact Jacobian (a forward difference where it has
+// none) and backtracking on |R| (the law is monotone and Lipschitz, piecewise bilinear); u in:
+// the start, out: the solution.
 template <int N>
 void SolveAveragedEndVelocity(const AveragedTable& table, const LawParameters& law,
                               const double axis[N], double normal_force,
