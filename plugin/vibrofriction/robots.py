@@ -7,7 +7,7 @@ rendering.
   vibrofriction.averaged and the table made by :func:`plate_push_table` from the same law.
 * Vibratory feeder: a track vibrating along a 20 degree throw line at 100 Hz conveys parts; the
   conveying comes from the normal load (contact force, modulated by the vertical vibration)
-  and the parts' stick-slip within each period. ``feeder.xml`` resolves it (dt = 0.1 ms,
+  and the parts' stick-slip within each period. ``feeder.xml`` resolves it (dt = 10 us,
   vibrofriction.planar); ``feeder_map.xml`` runs free parts on the still track at dt = 1 ms
   with vibrofriction.contact_feeder and the map :func:`feeder_map` makes from the exact
   reference (vibrofriction.feeder_reference).
