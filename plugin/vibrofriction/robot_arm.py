@@ -40,6 +40,7 @@ from .feeder_map import FeederMap, build_map
 from .feeder_reference import Feeder
 from .params import FrictionParameters, ParameterError
 from .robots import SceneRun
+from .robots import initial_state as robots_initial_state
 
 GRAVITY_M_PER_S2 = 9.81
 MODES = ("resolved", "robot")
@@ -362,21 +363,11 @@ def controls(model: mujoco.MjModel, waypoints: list[Waypoint] | None = None) -> 
 
 
 def initial_state(model: mujoco.MjModel, ctrl0: np.ndarray) -> np.ndarray:
-    data = mujoco.MjData(model)
-    for j, q in zip(ARM_JOINTS, HOME_Q):
-        data.qpos[model.joint(j).qposadr[0]] = q
+    """The arm at the plan's first waypoint, fingers open; everything else as the model has it."""
     first = plan()[0]
-    q = solve_ik(model, first.grip_position_m, _hand_rotation(0.0), HOME_Q)
-    for j, value in zip(ARM_JOINTS, q):
-        data.qpos[model.joint(j).qposadr[0]] = value
-    for j in FINGER_JOINTS:
-        data.qpos[model.joint(j).qposadr[0]] = FINGERS_OPEN
-    data.ctrl[:] = ctrl0
-    mujoco.mj_forward(model, data)
-    kind = mujoco.mjtState.mjSTATE_FULLPHYSICS
-    state = np.empty(mujoco.mj_stateSize(model, kind))
-    mujoco.mj_getState(model, data, state, kind)
-    return state
+    q = solve_ik(model, first.grip_position_m, _hand_rotation(first.tilt_rad), HOME_Q)
+    joints = {**dict(zip(ARM_JOINTS, q)), **{j: FINGERS_OPEN for j in FINGER_JOINTS}}
+    return robots_initial_state(model, ctrl0, joints)
 
 
 def run_cell(mode: str = "robot", vibration: bool = True, *,
