@@ -1,9 +1,12 @@
 #!/usr/bin/env python3
-"""Make the averaged-friction tables of the robot scenes (mjcf_models/robots/*_table.xml).
+"""Make the generated include files of the robot scenes (mjcf_models/robots/*_table.xml).
 
-Source: vibrofriction.averaged.build_table, i.e. the resolved planar law of each scene's
-vibrofriction.planar instance driven kinematically over the scene's vibration. Run it after
-changing a scene's friction or vibration parameters, then scripts/dev_install.sh.
+Sources: plate_push_table.xml from vibrofriction.averaged.build_table (the resolved planar law of
+plate_push_resolved.xml's vibrofriction.planar instance driven kinematically over its
+vibration); feeder_map_table.xml from vibrofriction.feeder_map.build_map (the exact feeder
+reference, vibrofriction.feeder_reference, for robots.FEEDER, the track and parts of
+feeder.xml). Run it after changing a scene's friction, vibration or feeder, then
+scripts/dev_install.sh.
 """
 from __future__ import annotations
 

@@ -100,7 +100,8 @@ def test_pushed_to_mu_g_the_part_slides_one_way_at_the_analytic_threshold() -> N
 
 
 def test_the_map_scales_with_the_frequency() -> None:
-    """V/(A w cos b) and the force ratio depend only on (Gamma, b, mu)."""
+    """V/(A w cos b) and the force ratio depend only on (Gamma, b, mu): a map moved to another
+    frequency is the map made there."""
     slow, fast = (build_map(_feeder(1.2, 30, 0.5, f), push_ratios=[-0.5, 0.0, 0.5])
                   for f in (50.0, 200.0))
     for m in (slow, fast):
@@ -109,6 +110,10 @@ def test_the_map_scales_with_the_frequency() -> None:
                                fast.velocity_m_per_s / fast.feeder.along_velocity_amplitude,
                                rtol=1e-6)
     np.testing.assert_allclose(slow.force_ratio, fast.force_ratio)
+    moved = slow.at_frequency(200.0)
+    assert moved.feeder.amplitude_m == pytest.approx(fast.feeder.amplitude_m, rel=1e-12)
+    np.testing.assert_allclose(moved.velocity_m_per_s, fast.velocity_m_per_s, rtol=1e-6)
+    np.testing.assert_allclose(moved.force_ratio, fast.force_ratio)
 
 
 def test_a_stuck_band_is_a_vertical_step_of_the_map() -> None:
@@ -174,8 +179,9 @@ def test_a_pushed_part_moves_at_the_references_velocity_under_that_push() -> Non
 def test_a_part_set_down_on_the_running_feeder_starts_up_as_the_reference(
         throw_number, throw_angle_deg) -> None:
     """A part set down at rest: the reference's displacement, averaged over 8 landing phases,
-    against the element's from rest, at period ends. The quasi-steady map has no phase: its
-    start-up lags or leads by a fraction of one period's conveying, not more."""
+    against the element's from rest, at period ends. The quasi-steady map has no phase and no
+    set-down: its start-up lags or leads by less than one period's conveying, and then keeps
+    pace."""
     feeder = _feeder(throw_number, throw_angle_deg)
     period = 1 / feeder.frequency_Hz
     feeder_map = build_map(feeder)
@@ -196,12 +202,15 @@ def test_a_part_set_down_on_the_running_feeder_starts_up_as_the_reference(
             reference.append(relative + track)
             element.append(np.interp(ends - phase / feeder.omega, times, x))
         gap = np.abs(np.mean(element, axis=0) - np.mean(reference, axis=0)) / steady
-        # the map's own part (measured 0.10 at 1 ms after the start-up, 0.22 in the first
-        # period), plus the implicit step's lag of the start-up, about dt times the velocity
-        # it gains (in periods of conveying: dt / period)
+        # The set-down itself (a landing impulse, or a first flight, by the phase) moves the
+        # reference's part by a fraction of a period's conveying that the map, starting from a
+        # mean velocity of 0, does not have (measured 0.43 and 0.84 at 1 ms); the implicit step
+        # lags the start-up by about dt times the velocity gained (dt / period, in periods of
+        # conveying). After the start-up the gap stays: both convey at the same speed.
         stepping = timestep / period
-        assert gap.max() < 0.3 + stepping, (timestep, gap.max())
-        assert gap[-1] < 0.12 + stepping, (timestep, gap[-1])
+        assert gap.max() < 1.0 + stepping, (timestep, gap.max())
+        assert abs(gap[-1] - gap[-10]) < 0.01, (timestep, gap[-10:])
+
 
 
 def test_below_the_stick_limit_the_part_stays() -> None:
@@ -232,6 +241,15 @@ def test_across_the_track_it_holds_by_what_the_conveying_leaves() -> None:
     assert coulomb * 0.99 < slid[-1, 1] < coulomb * 1.1
 
 
+def test_an_axis_normal_to_the_track_conveys_nothing() -> None:
+    """The map conveys along the axis' part in the contact plane; an axis along the normal has
+    none, and the element holds the part by rigid Coulomb."""
+    feeder_map = build_map(_feeder(0.7, 20))
+    model = _model(config=feeder_map.contact_config("track", axis=(0.0, 0.0, 1.0)))
+    _, xy = _run(model, 0.3)
+    assert np.max(np.abs(xy - xy[0])) < 1e-9
+
+
 def test_the_sensor_reads_the_feeder_element() -> None:
     feeder_map = build_map(_feeder(0.7, 20))
     model = _model(feeder_map)
@@ -250,6 +268,7 @@ def test_the_sensor_reads_the_feeder_element() -> None:
     ({"map_velocity": "0 0.01 0.02", "map_force": "0.1 0.2 -0.1"}, "must not increase"),
     ({"map_velocity": "0 0.01 0.02", "map_force": "0.5 0 -0.1"}, "exceeds mu"),
     ({"mu": "0"}, "must be > 0"),
+    ({"mu": None}, "'mu' is required"),
     ({"support": "nowhere"}, "names no body"),
 ])
 def test_bad_configs_get_one_message(change, message) -> None:

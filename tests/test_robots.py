@@ -11,8 +11,10 @@ import mujoco
 import numpy as np
 import pytest
 
+import vibrofriction
 from vibrofriction import robots
 from vibrofriction.averaged import Vibration
+from vibrofriction.params import ParameterError
 
 WEIGHT_N = robots.PART_MASS_KG * robots.GRAVITY_M_PER_S2
 BOUND_N = robots.PLATE_PART_FRICTION.friction_coefficient * WEIGHT_N
@@ -203,6 +205,29 @@ def test_the_feeder_at_robot_timesteps_conveys_at_the_exact_velocity():
         errors[timestep] = np.polyfit(run.time_s[late], x[late], 1)[0] / exact - 1
     assert abs(errors[1e-5]) < 0.03
     assert abs(errors[1e-5]) < abs(errors[1e-4]) / 3
+
+
+def test_the_flexible_feeder_plate_scene_in_both_modes():
+    """robots.feeder_plate_scene (scripts/bench_robots.py): the map mode's parts convey at the
+    exact velocity; the resolved mode steps without warnings (its speed is the benchmark's)."""
+    vibrofriction.load()
+    exact = robots.feeder_map().conveying_velocity_m_per_s
+    model = mujoco.MjModel.from_xml_string(robots.feeder_plate_scene(4, mode="map"))
+    data = mujoco.MjData(model)
+    mujoco.mj_step(model, data, nstep=300)
+    before = data.qpos.copy()
+    mujoco.mj_step(model, data, nstep=200)
+    assert not any(w.number for w in data.warning)
+    for k in range(4):
+        adr = model.joint(model.body(f"part{k}").jntadr[0]).qposadr[0]
+        assert (data.qpos[adr] - before[adr]) / 0.2 == pytest.approx(exact, rel=1e-3)
+    resolved = mujoco.MjModel.from_xml_string(robots.feeder_plate_scene(2, mode="resolved"))
+    assert resolved.opt.timestep == 1e-5
+    data = mujoco.MjData(resolved)
+    mujoco.mj_step(resolved, data, nstep=1000)
+    assert not any(w.number for w in data.warning)
+    with pytest.raises(ParameterError, match="unknown feeder mode"):
+        robots.feeder_plate_scene(1, mode="fast")
 
 
 _RENDER = """

@@ -167,7 +167,7 @@ void SolveAveragedEndVelocity(const AveragedTable& table, const LawParameters& l
           J[N * i + j] = sum;
         }
       }
-    } else {  // along the axis or at rest: a forward difference across the kink
+    } else {  // at rest: a forward difference
       const double h = 1e-7 * (velocity_amplitude + norm(u));
       for (int col = 0; col < N; ++col) {
         double up[N], rp[N];

@@ -70,9 +70,10 @@ void AveragedVectorForce(const AveragedTable& table, const LawParameters& law,
                          const double axis[N], const double u[N], double normal_force,
                          double velocity_amplitude, double force[N]);
 
-// AveragedVectorForce and its Jacobian dF/du (row-major N x N), exact within the table's cell.
-// False (nothing written) where u is along the axis or 0 to rounding: there the direction
-// across the axis is undefined and F has a kink; the caller differentiates numerically.
+// AveragedVectorForce and its Jacobian dF/du (row-major N x N), exact within the table's cell;
+// along the axis its limit there (the along part's kink across the axis taken flat). False
+// (nothing written) at rest to rounding, where no direction is defined: the caller
+// differentiates numerically.
 template <int N>
 bool AveragedVectorForceJacobian(const AveragedTable& table, const LawParameters& law,
                                  const double axis[N], const double u[N], double normal_force,

@@ -93,10 +93,13 @@ bool ContactConfig::FromModelFeeder(const mjModel* m, int instance, ContactConfi
   c.feeder = true;
   const char* plugin = kFeederPlugin;
   c.law.law = Law::kCoulomb;  // across and in spin: rigid Coulomb (no vibration there)
-  if (!ReadNumber(m, instance, plugin, kMu, c.law.friction_coefficient,
-                  &c.law.friction_coefficient)) {
-    return false;
+  const char* mu_text = mj_getPluginConfig(m, instance, kMu);
+  if (!mu_text || !mu_text[0]) {
+    return ConfigError("%s: attribute 'mu' is required: the part's friction coefficient on the "
+                       "track, the one its map was made with (FeederMap.contact_config writes "
+                       "it)", plugin);
   }
+  if (!ReadNumber(m, instance, plugin, kMu, 0.0, &c.law.friction_coefficient)) return false;
   const double mu = c.law.friction_coefficient;
   if (!(mu > 0)) {
     return RejectAttribute(plugin, kMu, mu, "must be > 0: the part's friction coefficient on the "
@@ -342,6 +345,7 @@ void ContactFriction::ImplicitForce(const mjModel* m, mjData* d, const mjtNum* s
   const double v_free[3] = {mju_dot3(ahead, t1), mju_dot3(ahead, t2), ahead[3]};
   double f3[3];
   double axis3[3] = {0, 0, 0};
+  double in_plane = 0.0;  // the axis' length in the contact plane
   if (config_->feeder || velocity_amplitude > 0) {
     // The vibration's part in the tangent plane, in (t1, t2, spin) components: the table is
     // read at that amplitude (the part along the normal is not modelled: it would modulate
@@ -351,7 +355,7 @@ void ContactFriction::ImplicitForce(const mjModel* m, mjData* d, const mjtNum* s
     mju_mulMatVec3(axis, d->xmat + 9 * config_->support, config_->axis_local);
     axis3[0] = mju_dot3(axis, t1);
     axis3[1] = mju_dot3(axis, t2);
-    const double in_plane = std::hypot(axis3[0], axis3[1]);
+    in_plane = std::hypot(axis3[0], axis3[1]);
     velocity_amplitude *= in_plane;
     if (in_plane > 0) {
       axis3[0] /= in_plane;
@@ -360,9 +364,11 @@ void ContactFriction::ImplicitForce(const mjModel* m, mjData* d, const mjtNum* s
   }
   // Below 1e-9 of the table's amplitude the dither slides nothing: rigid Coulomb.
   const bool vibrating = velocity_amplitude > 1e-9 * config_->velocity_amplitude;
-  if (config_->feeder) {
-    // (along, across) = R (t1, t2): a conveying axis normal to the track conveys nothing
-    if (!(std::hypot(axis3[0], axis3[1]) > 0)) axis3[0] = 1.0;
+  // A feeder's map conveys along the axis' part in the contact plane; an axis (nearly) normal
+  // to the contact has none: rigid Coulomb.
+  const bool conveying = config_->feeder && in_plane > 1e-6;
+  if (conveying) {
+    // (along, across) = R (t1, t2)
     const double R[9] = {axis3[0], axis3[1], 0.0, -axis3[1], axis3[0], 0.0, 0.0, 0.0, 1.0};
     double Br[9], vr[3], vfr[3], fr[3], RB[9];
     for (int r = 0; r < 3; ++r) {

@@ -16,7 +16,8 @@ map from the exact event-driven reference (`vibrofriction.feeder_reference`):
 The element multiplies the ratio by the contact's normal force F_N (the part's weight on a
 still track) and solves the end-of-step velocity implicitly, so the map's steep parts are stable
 at 1-2 ms. V/(A w cos b) and the ratio depend only on (Gamma, b, mu) (the reference's
-frequency independence), so one map serves a feeder at any frequency after scaling. The quasi-
+frequency independence), so one map serves the same feeder at any frequency
+(``FeederMap.at_frequency``). The quasi-
 steady assumption: the part's mean velocity changes little over one period (checked against
 the reference's own start-up in tests/test_feeder_map.py). Across the track and in spin the
 element holds the part by rigid Coulomb within what the conveying leaves of the cone.
@@ -54,6 +55,16 @@ class FeederMap:
     def conveying_velocity_m_per_s(self) -> float:
         """The mean velocity without push: where the mean friction is zero."""
         return float(np.interp(0.0, -self.force_ratio, self.velocity_m_per_s))
+
+    def at_frequency(self, frequency_Hz: float) -> "FeederMap":
+        """The map of the same feeder (Gamma, throw angle, mu) run at another frequency: the
+        amplitude scales as 1/f^2, so A w and the velocities as 1/f; the force ratios stay."""
+        f = self.feeder
+        moved = Feeder.from_throw_number(f.throw_number, f.throw_angle_rad, frequency_Hz,
+                                         f.friction_coefficient, f.gravity_m_per_s2)
+        scale = moved.along_velocity_amplitude / f.along_velocity_amplitude
+        return FeederMap(moved, self.push_ratio.copy(), self.velocity_m_per_s * scale,
+                         self.force_ratio.copy())
 
     def mean_force_ratio(self, velocity_m_per_s) -> np.ndarray:
         """The map read as the element reads it (linear between its points, its end values

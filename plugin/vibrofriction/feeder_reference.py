@@ -146,7 +146,8 @@ class FeederMotion:
     backward_fraction: float  # slipping backwards
     periods: int              # simulated, settling included
     converged: bool           # the last two windows agreed within the tolerance
-    # the mean relative velocity over each simulated period from the start (its start-up)
+    # each simulated period's relative displacement over the period (its start-up; the mean
+    # relative velocity but in a first period that starts late, at start_phase_rad)
     period_velocities_m_per_s: tuple[float, ...] = ()
 
     def normalized(self, feeder: Feeder) -> float:
@@ -160,8 +161,10 @@ def convey(feeder: Feeder, *, push_m_per_s2: float = 0.0, start_phase_rad: float
            samples_per_period: int = 400) -> FeederMotion:
     """Event-driven motion of the block from t = start_phase_rad / w (the track at A sin of that
     phase), starting stuck to the track (co-moving with it), or with `at_rest` at rest in space
-    (a part set down on the running feeder: its velocity relative to the track is minus the
-    track's). Periods count from t = 0; the first is partial when the phase is not 0. `push_m_per_s2`: a constant force per unit mass on the block along the track (a
+    (a part set down on the running feeder: relative to the track it moves at minus the
+    track's velocity, along and normal; a track moving up into it lands it, one moving down
+    leaves it in flight). Periods count from t = 0; the first is partial when the phase is not
+    0. `push_m_per_s2`: a constant force per unit mass on the block along the track (a
     pusher, a slope's pull); |push| < mu g, else the block has no periodic motion. At the
     periodic motion the mean friction per unit mass is -push: this gives the feeder map's mean
     force against the mean velocity (vibrofriction.feeder_map). After `settle_periods`, windows of `window_periods` (24: period-2, -3, -4, -6 motions
@@ -198,11 +201,12 @@ def convey(feeder: Feeder, *, push_m_per_s2: float = 0.0, start_phase_rad: float
         candidate = (lift_phase + 2 * math.pi * k) / w
         return candidate if candidate > t0 + eps else candidate + period
 
-    def flight_height(t0, x):
-        """Height above the track at x of a flight that left it at t0 with zero normal rate
-        (the load there: 0 at a lift-off, negative after a landing into a re-lift)."""
+    def flight_height(t0, x, rate0=0.0):
+        """Height above the track at x of a flight that left it at t0 with normal rate rate0
+        (0 at a lift-off, where the load is 0, and after a landing into a re-lift, where it is
+        negative; positive for a part set down at rest on a track moving away from it)."""
         tau, theta, phase = x - t0, w * (x - t0), w * t0
-        return (-load(t0) * 0.5 * tau * tau + normal / (w * w) * (
+        return (rate0 * tau - load(t0) * 0.5 * tau * tau + normal / (w * w) * (
             math.sin(phase) * _one_minus_cos_minus_half_square(theta)
             + math.cos(phase) * _x_minus_sin(theta)))
 
@@ -229,12 +233,22 @@ def convey(feeder: Feeder, *, push_m_per_s2: float = 0.0, start_phase_rad: float
     if not (math.isfinite(start_phase_rad) and 0 <= start_phase_rad < 2 * math.pi):
         raise ParameterError(f"start_phase_rad={start_phase_rad!r} must be in [0, 2 pi)")
     t = start_phase_rad / w
-    s = -feeder.along_velocity_amplitude * math.cos(w * t) if at_rest else 0.0
-    in_flight = False
+    s, in_flight, flight_rate = 0.0, False, 0.0
+    if at_rest:
+        # at rest in space on the track at t: relative to it, minus its velocity, along and
+        # normal; a track moving into the part lands it (plastic, friction impulse <= mu p), one
+        # moving away leaves it in flight with that normal rate
+        s = -feeder.along_velocity_amplitude * math.cos(w * t)
+        normal_rate = -feeder.amplitude_m * w * math.sin(b) * math.cos(w * t)
+        if normal_rate < 0:
+            impulse = -normal_rate
+            s = 0.0 if abs(s) <= mu * impulse else s - mu * impulse * math.copysign(1.0, s)
+        elif normal_rate > 0:
+            in_flight, flight_rate = True, normal_rate
     events_left = 50 * samples_per_period * max_periods  # a guard, far above any real count
 
     def run_until(t_stop):
-        nonlocal t, s, in_flight, events_left
+        nonlocal t, s, in_flight, flight_rate, events_left
         while t < t_stop:
             events_left -= 1
             if events_left < 0:
@@ -243,15 +257,18 @@ def convey(feeder: Feeder, *, push_m_per_s2: float = 0.0, start_phase_rad: float
                 t0 = t
                 # a flight is followed to its landing, past t_stop if need be (the windows read
                 # whole periods only)
-                land = _first_root(lambda x: flight_height(t0, x), t0, t0 + 20 * period, step,
-                                   +1.0)
+                rate0 = flight_rate
+                land = _first_root(lambda x: flight_height(t0, x, rate0), t0, t0 + 20 * period,
+                                   step, +1.0)
                 if land is None:
                     raise RuntimeError("feeder reference: a flight longer than 20 periods "
                                        f"(throw number {gamma:.3g})")
                 account("flight", t0, land, along, push, s)
                 s_minus = _velocity(along, push, w, t0, s, land)
-                rate = -normal / w * (math.cos(w * land) - math.cos(w * t0)) - g * (land - t0)
+                rate = rate0 - normal / w * (math.cos(w * land) - math.cos(w * t0)) \
+                    - g * (land - t0)
                 impulse = -rate
+                flight_rate = 0.0
                 s = 0.0 if abs(s_minus) <= mu * impulse else \
                     s_minus - mu * impulse * math.copysign(1.0, s_minus)
                 t, in_flight = land, False

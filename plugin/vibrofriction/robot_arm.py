@@ -388,13 +388,16 @@ def run_cell(mode: str = "robot", vibration: bool = True, *,
     state0 = initial_state(model, ctrl[0])
     state, rows = state0[None].copy(), []
     data = mujoco.MjData(model)
+    warmstart = None  # the constraint solver's, carried from chunk to chunk
     warnings: dict[str, int] = {}
     start = _time.perf_counter()
     with mj_rollout.Rollout(nthread=0) as runner:
         for begin in range(0, ctrl.shape[0], chunk):
             block = ctrl[begin:begin + chunk]
-            states, sensors = runner.rollout(model, data, state, block[None], nstep=len(block))
+            states, sensors = runner.rollout(model, data, state, block[None], nstep=len(block),
+                                             initial_warmstart=warmstart)
             state = states[0, -1][None].copy()
+            warmstart = data.qacc_warmstart[None].copy()
             rows.append(sensors[0, ::every])
             for i in range(len(data.warning)):
                 if data.warning[i].number:

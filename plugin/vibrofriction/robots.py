@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 from typing import Callable
 
@@ -78,8 +79,9 @@ def plate_push_table() -> AveragedTable:
                        PART_MASS_KG * GRAVITY_M_PER_S2)
 
 
+@lru_cache(maxsize=1)
 def feeder_map() -> FeederMap:
-    """The map of the feeder scenes' track and parts (FEEDER)."""
+    """The map of the feeder scenes' track and parts (FEEDER; made once, about 0.7 s)."""
     return build_map(FEEDER)
 
 
@@ -109,13 +111,14 @@ def feeder_plate_scene(parts: int, *, mode: str = "map", timestep_s: float | Non
     friction, 30 g 20 x 20 x 10 mm parts on a grid 30 mm apart): ``mode`` map (still plate,
     vibrofriction.contact_feeder, dt 1 ms) or resolved (the plate vibrating along the throw
     line through two vibrofriction.motion shakers, vibrofriction.contact Coulomb, dt 10 us).
-    For scripts/bench_robots.py and the feeder tests."""
+    For scripts/bench_robots.py, scripts/check_feeder_map.py and tests/test_robots.py."""
     if mode not in ("map", "resolved"):
         raise ParameterError(f"unknown feeder mode {mode!r}; use map or resolved")
     if not (isinstance(parts, int) and parts >= 1):
         raise ParameterError(f"parts={parts!r} must be a positive integer")
     f = FEEDER
     timestep = timestep_s if timestep_s is not None else (1e-3 if mode == "map" else 1e-5)
+    the_map = (feeder_map_ or feeder_map()) if mode == "map" else None
     columns = math.ceil(math.sqrt(parts))
     rows = math.ceil(parts / columns)
     names = [f"part{k}" for k in range(parts)]
@@ -128,7 +131,7 @@ def feeder_plate_scene(parts: int, *, mode: str = "map", timestep_s: float | Non
                       f'      <freejoint/>\n      <geom name="{name}" class="part"/>\n'
                       f'      <plugin instance="{name}_friction"/>\n    </body>')
         if mode == "map":
-            instances.append((feeder_map_ or feeder_map()).mjcf_instance(
+            instances.append(the_map.mjcf_instance(
                 f"{name}_friction", "plate", torsion_radius_m=FEEDER_PART_TORSION_RADIUS_M))
         else:
             instances.append(
