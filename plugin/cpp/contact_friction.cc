@@ -200,6 +200,30 @@ bool ContactConfig::ReadPair(const mjModel* m, int instance, const char* plugin,
     return ConfigError("%s: support=\"%s\" is the body the element is attached to; name the body "
                        "it rests on", plugin, support);
   }
+  // The chains: MuJoCo's mj_jac walks the same dofs (dof_parentid from the body's last dof).
+  c.chain_dofs.clear();
+  c.chain_signs.clear();
+  for (int k = 0; k < 2; ++k) {
+    int b = k == 0 ? c.body : c.support;
+    while (b > 0 && m->body_dofnum[b] == 0) b = m->body_parentid[b];
+    if (b <= 0) continue;  // the world, or welded to it
+    for (int i = m->body_dofadr[b] + m->body_dofnum[b] - 1; i >= 0; i = m->dof_parentid[i]) {
+      const double sign = k == 0 ? 1.0 : -1.0;
+      const auto it = std::find(c.chain_dofs.begin(), c.chain_dofs.end(), i);
+      if (it == c.chain_dofs.end()) {
+        c.chain_dofs.push_back(i);
+        c.chain_signs.push_back(sign);
+      } else {
+        c.chain_signs[it - c.chain_dofs.begin()] += sign;  // in both chains: 0
+      }
+    }
+  }
+  for (std::size_t j = c.chain_dofs.size(); j-- > 0;) {
+    if (c.chain_signs[j] == 0.0) {
+      c.chain_dofs.erase(c.chain_dofs.begin() + j);
+      c.chain_signs.erase(c.chain_signs.begin() + j);
+    }
+  }
   int touching = 0;  // geom pairs of body and support that make contacts
   for (int g1 = 0; g1 < m->ngeom; ++g1) {
     if (m->geom_bodyid[g1] != c.body) continue;
@@ -273,25 +297,28 @@ void FeederMapForce(const ContactConfig& config, const LawInput& in, const doubl
 
 void ContactFriction::SlidingVelocity(const mjModel* m, const mjData* d, const mjtNum* state,
                                       double u[4]) {
-  const int nv = m->nv;
-  jacobian_.assign(12 * static_cast<std::size_t>(nv), 0.0);
-  mjtNum* jacp = jacobian_.data();        // relative (body - support), 3 x nv
-  mjtNum* jacr = jacp + 3 * nv;           // 3 x nv
-  mjtNum* scratch_p = jacr + 3 * nv;      // one body's, 3 x nv
-  mjtNum* scratch_r = scratch_p + 3 * nv;
+  // mj_jac's columns, on the chain dofs only: dof i's motion (cdof: rotation, translation, at
+  // the subtree centre of mass of its tree's root) seen at the point, signed body - support.
   const mjtNum* point = state + ContactState::kPoint;
   const mjtNum* normal = state + ContactState::kNormal;
-  const int bodies[2] = {config_->body, config_->support};
-  for (int k = 0; k < 2; ++k) {
-    if (m->body_weldid[bodies[k]] == 0) continue;  // the world, or welded to it: no motion
-    mj_jac(m, d, scratch_p, scratch_r, point, bodies[k]);
-    const double sign = k == 0 ? 1.0 : -1.0;  // body relative to support
-    mju_addToScl(jacp, scratch_p, sign, 3 * nv);
-    mju_addToScl(jacr, scratch_r, sign, 3 * nv);
+  const std::vector<int>& dofs = config_->chain_dofs;
+  columns_.resize(6 * dofs.size());
+  mjtNum v[3] = {0, 0, 0}, w[3] = {0, 0, 0};
+  for (std::size_t k = 0; k < dofs.size(); ++k) {
+    const int i = dofs[k];
+    const double sign = config_->chain_signs[k];
+    const mjtNum* cdof = d->cdof + 6 * i;
+    mjtNum offset[3], swept[3];
+    mju_sub3(offset, point, d->subtree_com + 3 * m->body_rootid[m->dof_bodyid[i]]);
+    mju_cross(swept, cdof, offset);
+    mjtNum* column = columns_.data() + 6 * k;  // translation (3), rotation (3)
+    for (int r = 0; r < 3; ++r) {
+      column[r] = sign * (cdof[3 + r] + swept[r]);
+      column[3 + r] = sign * cdof[r];
+      v[r] += column[r] * d->qvel[i];
+      w[r] += column[3 + r] * d->qvel[i];
+    }
   }
-  mjtNum v[3], w[3];
-  mju_mulMatVec(v, jacp, d->qvel, 3, nv);
-  mju_mulMatVec(w, jacr, d->qvel, 3, nv);
   const double along = mju_dot3(v, normal);
   for (int i = 0; i < 3; ++i) u[i] = v[i] - along * normal[i];
   u[3] = state[ContactState::kRadius] * mju_dot3(w, normal);
@@ -310,22 +337,28 @@ void ContactFriction::TangentResponse(const mjModel* m, mjData* d, const mjtNum*
   mju_normalize3(t1);
   mju_cross(t2, normal, t1);
   const mjtNum* t[2] = {t1, t2};
-  rows_.resize(6 * static_cast<std::size_t>(nv));
+  // J is kept zero between calls but on the chain, so it is not cleared in full each step
+  rows_.resize(6 * static_cast<std::size_t>(nv), 0.0);
   mjtNum* J = rows_.data();
   mjtNum* X = J + 3 * nv;
-  const mjtNum* jacp = jacobian_.data();
-  const mjtNum* jacr = jacp + 3 * nv;
-  for (int j = 0; j < nv; ++j) {
-    for (int r = 0; r < 2; ++r) {
-      J[r * nv + j] = t[r][0] * jacp[j] + t[r][1] * jacp[nv + j] + t[r][2] * jacp[2 * nv + j];
-    }
-    J[2 * nv + j] = rho * (normal[0] * jacr[j] + normal[1] * jacr[nv + j] +
-                           normal[2] * jacr[2 * nv + j]);
+  const std::vector<int>& dofs = config_->chain_dofs;
+  for (std::size_t k = 0; k < dofs.size(); ++k) {  // J is zero off the chain
+    const mjtNum* column = columns_.data() + 6 * k;
+    const int j = dofs[k];
+    for (int r = 0; r < 2; ++r) J[r * nv + j] = mju_dot3(t[r], column);
+    J[2 * nv + j] = rho * mju_dot3(normal, column + 3);
   }
   mj_solveM(m, d, X, J, 3);  // M^-1 J' (the factor of M is this step's)
   const double dt = m->opt.timestep;
   for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) B[3 * r + c] = dt * mju_dot(J + r * nv, X + c * nv, nv);
+    for (int c = 0; c < 3; ++c) {
+      double sum = 0.0;
+      for (const int j : dofs) sum += J[r * nv + j] * X[c * nv + j];
+      B[3 * r + c] = dt * sum;
+    }
+  }
+  for (int r = 0; r < 3; ++r) {
+    for (const int j : dofs) J[r * nv + j] = 0.0;
   }
 }
 
@@ -448,16 +481,12 @@ void ContactFriction::Compute(const mjModel* m, mjData* d, int instance) {
   moment_ = -rho * f[3];
   speed_ = in.velocity;
   // The force and moment on the body at p and their opposites on the support: through the
-  // relative Jacobians at p (body - support) that SlidingVelocity kept, in one product each.
-  const int nv = m->nv;
-  const mjtNum* jacp = jacobian_.data();
-  const mjtNum* jacr = jacp + 3 * nv;
-  rows_.resize(std::max(rows_.size(), static_cast<std::size_t>(nv)));
-  mjtNum* generalized = rows_.data();  // scratch, nv (J and M^-1 J' are no longer needed)
-  mju_mulMatTVec(generalized, jacp, force, 3, nv);
-  mju_addTo(d->qfrc_passive, generalized, nv);
-  mju_mulMatTVec(generalized, jacr, torque, 3, nv);
-  mju_addTo(d->qfrc_passive, generalized, nv);
+  // relative Jacobians' columns at p (body - support) that SlidingVelocity kept.
+  const std::vector<int>& dofs = config_->chain_dofs;
+  for (std::size_t k = 0; k < dofs.size(); ++k) {
+    const mjtNum* column = columns_.data() + 6 * k;
+    d->qfrc_passive[dofs[k]] += mju_dot3(column, force) + mju_dot3(column + 3, torque);
+  }
 }
 
 void ContactFriction::Advance(const mjModel* m, mjData* d, int instance) {

@@ -41,6 +41,12 @@ struct ContactConfig {
   LawParameters law;           // averaged: rigid Coulomb, the law without vibration
   int body = -1;               // the sliding body (its <plugin instance=.../>)
   int support = -1;            // config `support`
+  // The dofs that move the body or the support (their kinematic chains), each with +1 for the
+  // body's, -1 for the support's; a dof in both moves them together and is left out. The
+  // relative Jacobians are nonzero only there: computed and applied on them alone, the element
+  // costs the same in a model of any size.
+  std::vector<int> chain_dofs;
+  std::vector<double> chain_signs;
   double torsion_radius = 0;   // m; 0: from the contact points
   // vibrofriction.contact_averaged: the averaged law's table, for this vibration
   bool averaged = false;
@@ -99,7 +105,8 @@ class ContactFriction {
 
  private:
   // The generalized velocity u (4) at point p about normal n, with rho, for the current qvel;
-  // keeps the relative Jacobians (translation, rotation: 3 x nv each) in jacobian_.
+  // keeps the relative Jacobians' columns on the chain dofs (translation, rotation: 6 each) in
+  // columns_.
   void SlidingVelocity(const mjModel* m, const mjData* d, const mjtNum* state, double u[4]);
   // The response of (v_t . t1, v_t . t2, rho w_n) to the force over this step: B = dt J M^-1 J'
   // (3 x 3), with the tangent directions t1, t2 it chose.
@@ -112,8 +119,8 @@ class ContactFriction {
                      double velocity_amplitude, const double u[4], double f[4]);
 
   CachedConfig<ContactConfig> config_;
-  std::vector<mjtNum> jacobian_;  // relative translation and rotation Jacobians (6 x nv)
-  std::vector<mjtNum> rows_;      // J (3 x nv) and M^-1 J' (3 x nv)
+  std::vector<mjtNum> columns_;  // per chain dof: d(v at p)/dq (3), d(omega)/dq (3), signed
+  std::vector<mjtNum> rows_;     // J (3 x nv) and M^-1 J' (3 x nv)
   // Over one step, for the coulomb law's acceleration estimate: u at compute, and the change of
   // u that the applied force causes (B f, as u).
   double u_start_[4] = {0, 0, 0, 0};
