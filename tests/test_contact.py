@@ -563,3 +563,66 @@ def test_contact_config_takes_the_tables_vibration_axis():
     axis = [float(a) for a in table.contact_config("plate")["axis"].split()]
     np.testing.assert_allclose(axis, [0.0, 1.0, 0.0], atol=1e-15)
     assert table.contact_config("plate", axis=(1, 0, 0))["axis"] == "1.0 0.0 0.0"
+
+
+def test_one_data_stepped_with_another_model_uses_that_models_bodies() -> None:
+    """One MjData may be stepped with models of equal sizes whose trees differ (a rollout over
+    several models does so): the element
+    re-reads its config (its body, support and chain ids) for each model, even when the config
+    text is the same. Model 2 lists the part before the plate, so their ids and dofs swap; a
+    part sliding obliquely with mu 0.5 must stop where it does with its own data."""
+    head = """<mujoco><option timestep="1e-3" integrator="implicitfast"/>
+<extension><plugin plugin="vibrofriction.contact"><instance name="pf">
+<config key="support" value="plate"/><config key="law" value="coulomb"/><config key="mu" value="0.5"/>
+</instance></plugin></extension><worldbody>"""
+    part = ('<body name="part" pos="0 0 0.0199"><freejoint name="part"/><geom type="box" '
+            'size="0.02 0.02 0.01" mass="0.1" condim="1"/><plugin instance="pf"/></body>')
+    plate = ('<body name="plate"><joint name="plate" type="slide" axis="1 0 0"/><geom '
+             'type="box" size="0.3 0.3 0.01" mass="5" condim="1"/></body>')
+    vibrofriction.load()
+    models = [mujoco.MjModel.from_xml_string(head + a + b + "</worldbody></mujoco>")
+              for a, b in ((plate, part), (part, plate))]
+    kind = mujoco.mjtState.mjSTATE_FULLPHYSICS
+
+    def start(m):
+        d = mujoco.MjData(m)
+        dof = m.joint("part").dofadr[0]
+        d.qvel[dof:dof + 2] = 0.2, 0.1  # the part slides obliquely
+        state = np.empty(mujoco.mj_stateSize(m, kind))
+        mujoco.mj_getState(m, d, state, kind)
+        return state
+
+    def run(m, data):
+        mujoco.mj_setState(m, data, start(m), kind)
+        mujoco.mj_step(m, data, nstep=200)
+        adr = m.joint("part").qposadr[0]
+        return data.qpos[adr:adr + 2].copy()
+    shared = mujoco.MjData(models[0])
+    for m in models:
+        alone = run(m, mujoco.MjData(m))
+        assert alone[0] < 0.2 * 0.2 / 2  # friction stopped it (frictionless: 40 mm)
+        np.testing.assert_allclose(run(m, shared), alone, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("layout,fix", [
+    ('<body name="plate"><geom name="plate" type="box" size="1 1 0.01" condim="1"/>'
+     '<body name="part" pos="0 0 0.06"><geom name="part" type="box" size="0.05 0.05 0.05" '
+     'mass="1" condim="1"/><plugin instance="part_friction"/></body></body>', "welded together"),
+    ('<body name="plate"><joint type="slide" axis="1 0 0"/><geom name="plate" type="box" '
+     'size="1 1 0.01" mass="10" condim="1"/><body name="part" pos="0 0 0.06"><joint '
+     'type="slide" axis="0 1 0"/><geom name="part" type="box" size="0.05 0.05 0.05" mass="1" '
+     'condim="1"/><plugin instance="part_friction"/></body></body>', "filterparent"),
+])
+def test_a_part_that_mujoco_never_collides_with_its_support_is_refused(layout, fix) -> None:
+    """MuJoCo's body-pair filter: one weld group, or parent and child with filterparent on."""
+    vibrofriction.load()
+    xml = f"""<mujoco><extension><plugin plugin="vibrofriction.contact">
+<instance name="part_friction"><config key="law" value="coulomb"/>
+<config key="support" value="plate"/></instance></plugin></extension>
+<worldbody>{layout}</worldbody></mujoco>"""
+    with pytest.raises(ValueError, match=fix):
+        mujoco.MjModel.from_xml_string(xml)
+    # with filterparent off the parent-child layout compiles
+    if fix == "filterparent":
+        mujoco.MjModel.from_xml_string(xml.replace(
+            "<mujoco>", '<mujoco><option><flag filterparent="disable"/></option>'))

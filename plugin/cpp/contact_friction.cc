@@ -37,15 +37,29 @@ constexpr char kMapForce[] = "map_force";
 const char* const kFeederAttributes[] = {kMu, kSupport, kTorsionRadius, kAxis, kMapVelocity,
                                          kMapForce};
 
+// True when MuJoCo's body-pair mechanism never collides bodies b1 and b2: one weld group, or a
+// parent and a child weld group (not the world) while filterparent is on. An explicit <pair>
+// still collides them.
+bool BodyPairFiltered(const mjModel* m, int b1, int b2) {
+  const int w1 = m->body_weldid[b1], w2 = m->body_weldid[b2];
+  if (w1 == w2) return true;
+  if (m->opt.disableflags & mjDSBL_FILTERPARENT) return false;
+  const int p1 = m->body_weldid[m->body_parentid[w1]];
+  const int p2 = m->body_weldid[m->body_parentid[w2]];
+  return (w1 != 0 && p2 == w1) || (w2 != 0 && p1 == w2);
+}
+
 // condim of the contacts MuJoCo makes between geoms g1 and g2 (an explicit <pair>, else the
-// geoms' priority, else the larger condim), or 0 when contype/conaffinity exclude the pair.
-int PairCondim(const mjModel* m, int g1, int g2) {
+// geoms' priority, else the larger condim), or 0 when MuJoCo makes none: contype/conaffinity
+// exclude the pair, or `filtered` (BodyPairFiltered) and no <pair> names it.
+int PairCondim(const mjModel* m, int g1, int g2, bool filtered) {
   for (int i = 0; i < m->npair; ++i) {
     if ((m->pair_geom1[i] == g1 && m->pair_geom2[i] == g2) ||
         (m->pair_geom1[i] == g2 && m->pair_geom2[i] == g1)) {
       return m->pair_dim[i];
     }
   }
+  if (filtered) return 0;
   const bool collide = (m->geom_contype[g1] & m->geom_conaffinity[g2]) ||
                        (m->geom_contype[g2] & m->geom_conaffinity[g1]);
   if (!collide) return 0;
@@ -225,11 +239,12 @@ bool ContactConfig::ReadPair(const mjModel* m, int instance, const char* plugin,
     }
   }
   int touching = 0;  // geom pairs of body and support that make contacts
+  const bool filtered = BodyPairFiltered(m, c.body, c.support);
   for (int g1 = 0; g1 < m->ngeom; ++g1) {
     if (m->geom_bodyid[g1] != c.body) continue;
     for (int g2 = 0; g2 < m->ngeom; ++g2) {
       if (m->geom_bodyid[g2] != c.support) continue;
-      const int condim = PairCondim(m, g1, g2);
+      const int condim = PairCondim(m, g1, g2, filtered);
       if (condim == 0) continue;
       if (condim != 1) {
         const char* n1 = mj_id2name(m, mjOBJ_GEOM, g1);
@@ -243,6 +258,13 @@ bool ContactConfig::ReadPair(const mjModel* m, int instance, const char* plugin,
       }
       ++touching;
     }
+  }
+  if (touching == 0 && filtered) {
+    return ConfigError("%s: MuJoCo makes no contacts between body '%s' and its support '%s': "
+                       "they are welded together (no joint between them), or parent and child "
+                       "with <flag filterparent=\"enable\"/>; give the part a joint, disable "
+                       "filterparent, or declare <pair geom1=.. geom2=.. condim=\"1\"/>", plugin,
+                       BodyName(m, c.body), BodyName(m, c.support));
   }
   if (touching == 0) {
     return ConfigError("%s: no geom of body '%s' can touch a geom of its support '%s' "
@@ -338,7 +360,10 @@ void ContactFriction::TangentResponse(const mjModel* m, mjData* d, const mjtNum*
   mju_cross(t2, normal, t1);
   const mjtNum* t[2] = {t1, t2};
   // J is kept zero between calls but on the chain, so it is not cleared in full each step
-  rows_.resize(6 * static_cast<std::size_t>(nv), 0.0);
+  // (cleared in full when nv changes: J's and M^-1 J''s parts move)
+  if (rows_.size() != 6 * static_cast<std::size_t>(nv)) {
+    rows_.assign(6 * static_cast<std::size_t>(nv), 0.0);
+  }
   mjtNum* J = rows_.data();
   mjtNum* X = J + 3 * nv;
   const std::vector<int>& dofs = config_->chain_dofs;

@@ -43,8 +43,9 @@ struct ContactConfig {
   int support = -1;            // config `support`
   // The dofs that move the body or the support (their kinematic chains), each with +1 for the
   // body's, -1 for the support's; a dof in both moves them together and is left out. The
-  // relative Jacobians are nonzero only there: computed and applied on them alone, the element
-  // costs the same in a model of any size.
+  // relative Jacobians are nonzero only there: computed and applied on them alone, they cost the
+  // same in a model of any size (the response B of coulomb and the averaged laws still solves
+  // with M over the whole model).
   std::vector<int> chain_dofs;
   std::vector<double> chain_signs;
   double torsion_radius = 0;   // m; 0: from the contact points

@@ -92,7 +92,7 @@ class CachedConfig {
   static std::optional<CachedConfig> Load(Reader read, const mjModel* m, int instance) {
     Config config;
     if (!read(m, instance, &config, ReadScope::kAll)) return std::nullopt;
-    return CachedConfig(read, std::move(config), ConfigFingerprint(m, instance));
+    return CachedConfig(read, std::move(config), ConfigFingerprint(m, instance), m);
   }
 
   // False when the config of `m` is invalid (warned once, naming the element and attribute).
@@ -107,12 +107,15 @@ class CachedConfig {
   const Config* operator->() const { return &config_; }
 
  private:
-  CachedConfig(Reader read, Config config, std::string fingerprint)
-      : read_(read), config_(std::move(config)), fingerprint_(std::move(fingerprint)) {}
-  // Another model (or the same one whose spot check failed): compare in full, re-read if needed.
+  CachedConfig(Reader read, Config config, std::string fingerprint, const mjModel* model)
+      : read_(read), config_(std::move(config)), fingerprint_(std::move(fingerprint)),
+        model_(model) {}
+  // Another model, or the same one with other config bytes: read again. (Another model with
+  // equal bytes too: the config holds its ids -- bodies, geoms, sensors, dofs -- which come
+  // from the model's tree, not from the bytes; a rollout may step one mjData with models whose
+  // trees differ.)
   bool Reload(const mjModel* m, int instance) {
     model_ = m;
-    if (ConfigUnchanged(m, instance, fingerprint_)) return valid_;
     fingerprint_ = ConfigFingerprint(m, instance);
     valid_ = read_(m, instance, &config_, ReadScope::kAll);
     if (!valid_) ReportConfigError(m, instance, /*fatal=*/false);
