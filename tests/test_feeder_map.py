@@ -110,6 +110,8 @@ def test_the_map_scales_with_the_frequency() -> None:
                                fast.velocity_m_per_s / fast.feeder.along_velocity_amplitude,
                                rtol=1e-6)
     np.testing.assert_allclose(slow.force_ratio, fast.force_ratio)
+    with pytest.raises(ValueError, match="read-only"):
+        slow.velocity_m_per_s[0] = 0.0  # a map is shared: it cannot be changed in place
     moved = slow.at_frequency(200.0)
     assert moved.feeder.amplitude_m == pytest.approx(fast.feeder.amplitude_m, rel=1e-12)
     np.testing.assert_allclose(moved.velocity_m_per_s, fast.velocity_m_per_s, rtol=1e-6)

@@ -293,3 +293,24 @@ def test_the_one_copy_from_the_c_struct_fills_every_field() -> None:
     assert sorted(copied) == sorted((field, field) for field in LAW_STRUCT_FIELDS)
     for source in ("c_api.cc", "planar_friction.cc"):
         assert "params->friction_coefficient" not in _cpp(source), f"a second copy in {source}"
+
+
+def test_normal_gain_has_one_unit_in_every_docs_table() -> None:
+    """normal_gain (N per unit of the sensor value or contact force) is no friction term, so
+    the vocabulary does not hold it: every docs table row that names it gives it N/unit."""
+    pages = [ROOT / "docs" / name for name in ("interfaces.md", "simulation.md", "robots.md")]
+    pages.append(CPP / "README.md")
+    rows = [line for page in pages for line in page.read_text().splitlines()
+            if line.startswith("|") and "`normal_gain`" in line
+            and "as `friction`" not in line]
+    assert len(rows) >= 4, rows
+    for row in rows:
+        cells = [c.strip() for c in row.strip("|").split("|")]
+        at = next(i for i, c in enumerate(cells) if "`normal_gain`" in c)
+        keys = [k.strip(" `") for k in cells[at].split(",")]
+        if len(keys) > 1:  # a grouped row: its units in the keys' order, in the next such cell
+            unit_cell = next(c for c in cells[at + 1:] if c.count(",") == len(keys) - 1)
+            units = [u.strip() for u in unit_cell.split(",")]
+            assert units[keys.index("normal_gain")] == "N/unit", row
+        else:
+            assert "N/unit" in cells, row

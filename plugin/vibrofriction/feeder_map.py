@@ -51,6 +51,13 @@ class FeederMap:
     velocity_m_per_s: np.ndarray = field(repr=False)
     force_ratio: np.ndarray = field(repr=False)       # mean friction along the track / (m g)
 
+    def __post_init__(self) -> None:
+        # read-only copies: a map is shared (robots.feeder_map caches one) and must not change
+        for name in ("push_ratio", "velocity_m_per_s", "force_ratio"):
+            values = np.array(getattr(self, name), dtype=float)
+            values.setflags(write=False)
+            object.__setattr__(self, name, values)
+
     @property
     def conveying_velocity_m_per_s(self) -> float:
         """The mean velocity without push: where the mean friction is zero."""
