@@ -25,7 +25,7 @@ import numpy as np
 import vibrofriction
 from vibrofriction import robots
 from vibrofriction.feeder_map import build_map
-from vibrofriction.feeder_reference import Feeder, convey
+from vibrofriction.feeder_reference import Feeder, convey, set_down_travel
 
 PERIODS = 30
 
@@ -47,14 +47,11 @@ def _start_up_gap(feeder: Feeder, feeder_map, timestep: float) -> tuple[float, f
     speed = np.polyfit(times[late], x[late], 1)[0]
     along = feeder.amplitude_m * math.cos(feeder.throw_angle_rad)
     ends = (np.arange(PERIODS) + 1) * period
-    reference, element = [], []
-    for phase in np.arange(8) * 2 * math.pi / 8:
-        motion = convey(feeder, start_phase_rad=phase, at_rest=True)
-        relative = np.cumsum(motion.period_velocities_m_per_s[:PERIODS]) * period
-        reference.append(relative + along * (np.sin(feeder.omega * ends) - math.sin(phase)))
-        element.append(np.interp(ends - phase / feeder.omega, times, x))
-    gap = np.abs(np.mean(element, axis=0) - np.mean(reference, axis=0))
-    return speed, float(gap.max() / along)
+    phases = np.arange(8) * 2 * math.pi / 8
+    reference = np.mean([set_down_travel(feeder, PERIODS, phase) for phase in phases], axis=0)
+    element = np.mean([np.interp(ends - phase / feeder.omega, times, x) for phase in phases],
+                      axis=0)
+    return speed, float(np.abs(element - reference).max() / along)
 
 
 def main(argv: list[str] | None = None) -> int:

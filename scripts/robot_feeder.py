@@ -27,7 +27,7 @@ import numpy as np  # noqa: E402
 import mujoco  # noqa: E402
 
 from vibrofriction import robots  # noqa: E402
-from vibrofriction.feeder_reference import convey  # noqa: E402
+from vibrofriction.feeder_reference import set_down_travel  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -90,15 +90,9 @@ def main(argv: list[str] | None = None) -> int:
           "(one run each; scripts/bench_robots.py measures the cost)")
 
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.4))
-    motion = convey(feeder, at_rest=True)
     period = 1 / feeder.frequency_Hz
     ends = np.arange(1, int(duration / period) + 1) * period
-    along = feeder.amplitude_m * np.cos(feeder.throw_angle_rad)
-    # (the reference stops once settled: later periods convey at its mean velocity)
-    per_period = np.full(ends.size, motion.mean_velocity_m_per_s)
-    ran = min(ends.size, len(motion.period_velocities_m_per_s))
-    per_period[:ran] = motion.period_velocities_m_per_s[:ran]
-    reference = np.cumsum(per_period) * period + along * np.sin(feeder.omega * ends)
+    reference = set_down_travel(feeder, ends.size)
     axes[0].plot(ends, 1e3 * reference, color="k", lw=3, alpha=0.3,
                  label="exact reference (period ends)")
     for run, label, style in ((on, "resolved, dt 10 us", "C0-"), (coarse, "resolved, dt 0.1 ms",

@@ -324,6 +324,23 @@ def convey(feeder: Feeder, *, push_m_per_s2: float = 0.0, start_phase_rad: float
                         tuple(x / period for x in bins["integral"][:periods]))
 
 
+def set_down_travel(feeder: Feeder, periods: int, start_phase_rad: float = 0.0) -> np.ndarray:
+    """A part set down at rest on the running track at t = start_phase_rad / w
+    (``convey(..., at_rest=True)``): its travel in space along the track at the ends of periods
+    1 ... `periods` (t = k / f), from where it was set down: relative to the track, plus the
+    track's own motion. Periods past the run's (it stops once settled) convey at its mean
+    velocity."""
+    motion = convey(feeder, start_phase_rad=start_phase_rad, at_rest=True)
+    period = 1 / feeder.frequency_Hz
+    per_period = np.full(periods, motion.mean_velocity_m_per_s)
+    ran = min(periods, len(motion.period_velocities_m_per_s))
+    per_period[:ran] = motion.period_velocities_m_per_s[:ran]
+    ends = (np.arange(periods) + 1) * period
+    along = feeder.amplitude_m * math.cos(feeder.throw_angle_rad)
+    return np.cumsum(per_period) * period + along * (np.sin(feeder.omega * ends)
+                                                     - math.sin(start_phase_rad))
+
+
 def flight_fraction_infinite_friction(throw_number: float) -> float:
     """n_F of classical throw theory: sqrt(G^2 - 1)(2 pi n - sin 2 pi n) = 2 pi^2 n^2 +
     cos 2 pi n - 1, for 1 < G <= sqrt(1 + pi^2) (one flight within a period)."""
@@ -356,5 +373,6 @@ def stick_throw_number(throw_angle_rad: float, friction_coefficient: float) -> f
     return friction_coefficient * s / (c + friction_coefficient * s)
 
 
-__all__ = ["Feeder", "FeederMotion", "convey", "flight_fraction_infinite_friction",
+__all__ = ["Feeder", "FeederMotion", "convey", "set_down_travel",
+           "flight_fraction_infinite_friction",
            "infinite_friction_velocity_ratio", "stick_throw_number", "GRAVITY_M_PER_S2"]
