@@ -108,19 +108,7 @@ def main(argv: list[str] | None = None) -> int:
     fig.savefig(path, dpi=80)
     print(f"wrote {path}")
     try:
-        on = runs["robot", True]
-        model = on.model
-        import mujoco
-        renderer = robots.make_renderer(model, 240, 320)
-        data = mujoco.MjData(model)
-        frames = []
-        for time_s in (1.8, 3.6, 7.0, 9.9):
-            data = mujoco.MjData(model)
-            run = robot_arm.run_cell("robot", True, duration_s=time_s)
-            mujoco.mj_setState(model, data, run.state[-1], mujoco.mjtState.mjSTATE_FULLPHYSICS)
-            mujoco.mj_forward(model, data)
-            renderer.update_scene(data, camera="overview")
-            frames.append(renderer.render())
+        frames = robots.render_frames(runs["robot", True], (1.8, 3.6, 7.0, 9.9))
     except robots.RenderingUnavailable as reason:
         print(f"frames skipped: {reason}")
         return 0

@@ -39,7 +39,7 @@ from .averaged import AveragedTable, Vibration, build_table
 from .feeder_map import FeederMap, build_map
 from .feeder_reference import Feeder
 from .params import FrictionParameters, ParameterError
-from .robots import SceneRun
+from .robots import SceneRun, run_scene
 from .robots import initial_state as robots_initial_state
 
 GRAVITY_M_PER_S2 = 9.81
@@ -372,10 +372,8 @@ def initial_state(model: mujoco.MjModel, ctrl0: np.ndarray) -> np.ndarray:
 
 def run_cell(mode: str = "robot", vibration: bool = True, *,
              duration_s: float = DURATION_S) -> SceneRun:
-    """The plan, natively (mujoco.rollout, in chunks of 10 ms so that a resolved run keeps
-    little memory); sensors every millisecond, the state at its end (SceneRun.state: one row)."""
-    import time as _time
-    from mujoco import rollout as mj_rollout
+    """The plan, natively (robots.run_scene in chunks of 10 ms, so that a resolved run keeps
+    little memory); sensors and states every millisecond."""
     model = build_model(mode, vibration)
     ctrl = controls(model)[:int(round(duration_s / model.opt.timestep))]
     if not vibration:
@@ -384,30 +382,8 @@ def run_cell(mode: str = "robot", vibration: bool = True, *,
             if shaker in names:
                 ctrl[:, names.index(shaker)] = 0.0
     every = max(1, int(round(1e-3 / model.opt.timestep)))
-    chunk = every * 10
-    state0 = initial_state(model, ctrl[0])
-    state, rows = state0[None].copy(), []
-    data = mujoco.MjData(model)
-    warmstart = None  # the constraint solver's, carried from chunk to chunk
-    warnings: dict[str, int] = {}
-    start = _time.perf_counter()
-    with mj_rollout.Rollout(nthread=0) as runner:
-        for begin in range(0, ctrl.shape[0], chunk):
-            block = ctrl[begin:begin + chunk]
-            states, sensors = runner.rollout(model, data, state, block[None], nstep=len(block),
-                                             initial_warmstart=warmstart)
-            state = states[0, -1][None].copy()
-            warmstart = data.qacc_warmstart[None].copy()
-            rows.append(sensors[0, ::every])
-            for i in range(len(data.warning)):
-                if data.warning[i].number:
-                    name = mujoco.mjtWarning(i).name
-                    warnings[name] = max(warnings.get(name, 0), int(data.warning[i].number))
-    wall = _time.perf_counter() - start
-    sensordata = np.concatenate(rows)
-    time_s = np.arange(sensordata.shape[0]) * every * model.opt.timestep
-    return SceneRun(model=model, time_s=time_s, sensordata=sensordata, state=state,
-                    initial_state=state0, warnings=warnings, wall_s=wall)
+    return run_scene(model, ctrl, initial_state(model, ctrl[0]), keep_every=every,
+                     chunk_steps=10 * every)
 
 
 __all__ = ["CELL_FEEDER", "CELL_PART_MASS_KG", "CELL_PLATE_FRICTION", "CELL_PLATE_TILT_RAD",

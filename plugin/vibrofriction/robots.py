@@ -306,7 +306,8 @@ def initial_state(model: mujoco.MjModel, ctrl0: np.ndarray | None = None,
 
 @dataclass(frozen=True)
 class SceneRun:
-    """Sensors (row i at t_i, before step i) and full states (after step i) of one run."""
+    """Sensors (row i at t_i, before step i) and full states (row j after step
+    (j + 1) state_every - 1) of one run."""
 
     model: mujoco.MjModel
     time_s: np.ndarray
@@ -315,32 +316,56 @@ class SceneRun:
     initial_state: np.ndarray
     warnings: dict[str, int]
     wall_s: float
+    state_every: int = 1
 
     def sensor(self, name: str) -> np.ndarray:
         return sensor_columns(self.model, self.sensordata, name)
 
     def state_at(self, t: float) -> np.ndarray:
-        k = int(round(t / self.model.opt.timestep)) - 1
-        return self.initial_state if k < 0 else self.state[min(k, len(self.state) - 1)]
+        """The state after the step ending at t (the last kept one at or before it)."""
+        j = int(round(t / self.model.opt.timestep)) // self.state_every - 1
+        return self.initial_state if j < 0 else self.state[min(j, len(self.state) - 1)]
 
 
 def run_scene(model: mujoco.MjModel, ctrl: np.ndarray, state0: np.ndarray | None = None, *,
-              keep_every: int = 1) -> SceneRun:
-    """Roll the model out natively under ctrl (nstep x nu); checks MuJoCo's warning counters."""
+              keep_every: int = 1, chunk_steps: int | None = None) -> SceneRun:
+    """Roll the model out natively under ctrl (nstep x nu); checks MuJoCo's warning counters.
+    Sensors every `keep_every` steps. With `chunk_steps` (a multiple of keep_every) the rollout
+    runs in chunks of that many steps, carrying the state and the constraint solver's warm
+    start (the same steps as one rollout), and keeps a state every `keep_every` steps only: a
+    long run at a fine step keeps little memory."""
     import time as _time
     state0 = initial_state(model, ctrl[0]) if state0 is None else state0
     data = mujoco.MjData(model)
     nstep = ctrl.shape[0]
+    chunk = nstep if chunk_steps is None else chunk_steps
+    if chunk % keep_every and chunk != nstep:
+        raise ParameterError(f"chunk_steps={chunk_steps} must be a multiple of "
+                             f"keep_every={keep_every}")
+    state, warmstart = state0[None], None
+    states, sensors = [], []
+    warnings: dict[str, int] = {}
     start = _time.perf_counter()
-    state, sensordata = mj_rollout.rollout(model, data, state0[None], ctrl[None], nstep=nstep)
+    with mj_rollout.Rollout(nthread=0) as runner:
+        for begin in range(0, nstep, chunk):
+            block = ctrl[begin:begin + chunk]
+            block_states, block_sensors = runner.rollout(
+                model, data, state, block[None], nstep=len(block), initial_warmstart=warmstart)
+            state = block_states[0, -1][None].copy()
+            warmstart = data.qacc_warmstart[None].copy()
+            states.append(block_states[0] if chunk_steps is None
+                          else block_states[0, keep_every - 1::keep_every])
+            sensors.append(block_sensors[0, ::keep_every])
+            # each rollout's data holds the counters of its own chunk
+            for i in range(len(data.warning)):
+                if data.warning[i].number:
+                    name = mujoco.mjtWarning(i).name
+                    warnings[name] = max(warnings.get(name, 0), int(data.warning[i].number))
     wall = _time.perf_counter() - start
-    # The rollout's data holds the final warning counters of the run.
-    warnings = {mujoco.mjtWarning(i).name: int(data.warning[i].number)
-                for i in range(len(data.warning)) if data.warning[i].number}
     time_s = np.arange(nstep) * model.opt.timestep
-    return SceneRun(model=model, time_s=time_s[::keep_every],
-                    sensordata=sensordata[0][::keep_every], state=state[0],
-                    initial_state=state0, warnings=warnings, wall_s=wall)
+    return SceneRun(model=model, time_s=time_s[::keep_every], sensordata=np.concatenate(sensors),
+                    state=np.concatenate(states), initial_state=state0, warnings=warnings,
+                    wall_s=wall, state_every=1 if chunk_steps is None else keep_every)
 
 
 def run_push(mode: str = "averaged", *, vibration: bool = True, plan: PushPlan | None = None,
