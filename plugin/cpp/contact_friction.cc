@@ -489,9 +489,8 @@ void ContactFriction::Compute(const mjModel* m, mjData* d, int instance) {
   if (HasDeflection(config_->law.law)) {
     const double zeta[4] = {state[0], state[1], state[2], rho * state[ContactState::kTwist]};
     VectorStateForce<4>(config_->law, in, u, zeta, f);
-  } else {  // coulomb, or the averaged table
-    ImplicitForce(m, d, state, in,
-                  config_->averaged || config_->feeder ? config_->velocity_amplitude : 0.0, u, f);
+  } else {  // coulomb, the averaged table or the feeder map
+    ImplicitForce(m, d, state, in, config_->averaged ? config_->velocity_amplitude : 0.0, u, f);
     mju_copy(u_start_, u, 4);
     coulomb_applied_ = true;
   }
