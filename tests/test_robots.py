@@ -230,6 +230,25 @@ def test_the_flexible_feeder_plate_scene_in_both_modes():
         robots.feeder_plate_scene(1, mode="fast")
 
 
+def test_a_chunked_run_is_the_same_run_with_fewer_states_kept():
+    """run_scene(chunk_steps=...) carries the state and the warm start from chunk to chunk: the
+    same sensors and, at the kept rows, the same states as one rollout."""
+    model = robots.load_model("feeder_map")
+    ctrl = np.zeros((250, model.nu))
+    whole = robots.run_scene(model, ctrl, keep_every=5)
+    chunked = robots.run_scene(model, ctrl, keep_every=5, chunk_steps=50)
+    np.testing.assert_array_equal(chunked.sensordata, whole.sensordata)
+    np.testing.assert_array_equal(chunked.time_s, whole.time_s)
+    np.testing.assert_array_equal(chunked.state, whole.state[4::5])
+    dt = model.opt.timestep
+    for steps in (0, 3, 12, 200, 250):  # the last kept state at or before each time
+        kept = steps // 5 * 5
+        np.testing.assert_array_equal(chunked.state_at(steps * dt), whole.state_at(kept * dt))
+    for bad in (0, -5, 12):
+        with pytest.raises(ParameterError, match="chunk_steps"):
+            robots.run_scene(model, ctrl, keep_every=5, chunk_steps=bad)
+
+
 _RENDER = """
 import sys
 from vibrofriction import robots

@@ -113,9 +113,9 @@ class ContactFriction {
   // (3 x 3), with the tangent directions t1, t2 it chose.
   void TangentResponse(const mjModel* m, mjData* d, const mjtNum* state, mjtNum t1[3],
                        mjtNum t2[3], double B[9]);
-  // law coulomb (velocity_amplitude = 0) or the averaged table: the force (4, as u) from the
-  // end-of-step velocity, solved with B and the other forces' acceleration of the last step
-  // (one step late, like the contact's normal force).
+  // law coulomb (velocity_amplitude = 0), the averaged table or the feeder map: the force (4,
+  // as u) from the end-of-step velocity, solved with B and the other forces' acceleration of
+  // the last step (one step late, like the contact's normal force).
   void ImplicitForce(const mjModel* m, mjData* d, const mjtNum* state, const LawInput& in,
                      double velocity_amplitude, const double u[4], double f[4]);
 

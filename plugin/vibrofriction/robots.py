@@ -332,16 +332,18 @@ def run_scene(model: mujoco.MjModel, ctrl: np.ndarray, state0: np.ndarray | None
     """Roll the model out natively under ctrl (nstep x nu); checks MuJoCo's warning counters.
     Sensors every `keep_every` steps. With `chunk_steps` (a multiple of keep_every) the rollout
     runs in chunks of that many steps, carrying the state and the constraint solver's warm
-    start (the same steps as one rollout), and keeps a state every `keep_every` steps only: a
-    long run at a fine step keeps little memory."""
+    start (the same steps as one rollout while MuJoCo does not warn: each chunk's warnings are
+    counted apart, the largest count kept), and keeps a state every `keep_every` steps only (the
+    last row is the final state only when the steps are a multiple of keep_every): a long run
+    at a fine step keeps little memory."""
     import time as _time
     state0 = initial_state(model, ctrl[0]) if state0 is None else state0
     data = mujoco.MjData(model)
     nstep = ctrl.shape[0]
-    chunk = nstep if chunk_steps is None else chunk_steps
-    if chunk % keep_every and chunk != nstep:
-        raise ParameterError(f"chunk_steps={chunk_steps} must be a multiple of "
+    if chunk_steps is not None and not (chunk_steps >= 1 and chunk_steps % keep_every == 0):
+        raise ParameterError(f"chunk_steps={chunk_steps} must be a positive multiple of "
                              f"keep_every={keep_every}")
+    chunk = max(nstep, 1) if chunk_steps is None else chunk_steps
     state, warmstart = state0[None], None
     states, sensors = [], []
     warnings: dict[str, int] = {}
@@ -353,9 +355,10 @@ def run_scene(model: mujoco.MjModel, ctrl: np.ndarray, state0: np.ndarray | None
                 model, data, state, block[None], nstep=len(block), initial_warmstart=warmstart)
             state = block_states[0, -1][None].copy()
             warmstart = data.qacc_warmstart[None].copy()
+            # copies of the kept rows: views would keep every chunk's full arrays alive
             states.append(block_states[0] if chunk_steps is None
-                          else block_states[0, keep_every - 1::keep_every])
-            sensors.append(block_sensors[0, ::keep_every])
+                          else block_states[0, keep_every - 1::keep_every].copy())
+            sensors.append(block_sensors[0, ::keep_every].copy())
             # each rollout's data holds the counters of its own chunk
             for i in range(len(data.warning)):
                 if data.warning[i].number:
@@ -363,9 +366,14 @@ def run_scene(model: mujoco.MjModel, ctrl: np.ndarray, state0: np.ndarray | None
                     warnings[name] = max(warnings.get(name, 0), int(data.warning[i].number))
     wall = _time.perf_counter() - start
     time_s = np.arange(nstep) * model.opt.timestep
-    return SceneRun(model=model, time_s=time_s[::keep_every], sensordata=np.concatenate(sensors),
-                    state=np.concatenate(states), initial_state=state0, warnings=warnings,
-                    wall_s=wall, state_every=1 if chunk_steps is None else keep_every)
+    if nstep == 0:  # (no chunk ran)
+        states = [np.empty((0, state0.size))]
+        sensors = [np.empty((0, model.nsensordata))]
+    return SceneRun(model=model, time_s=time_s[::keep_every],
+                    sensordata=sensors[0] if len(sensors) == 1 else np.concatenate(sensors),
+                    state=states[0] if len(states) == 1 else np.concatenate(states),
+                    initial_state=state0, warnings=warnings, wall_s=wall,
+                    state_every=1 if chunk_steps is None else keep_every)
 
 
 def run_push(mode: str = "averaged", *, vibration: bool = True, plan: PushPlan | None = None,
