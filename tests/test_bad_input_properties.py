@@ -67,9 +67,10 @@ def test_any_set_value_is_a_valid_parameter_or_one_clear_error(name, value):
     for params in (rig, friction):
         for field, (smallest, largest) in LIMITS.items():
             if hasattr(params, field):
-                x = getattr(params, field)
-                assert math.isfinite(x) and abs(x) <= largest
-                assert x == 0 or abs(x) >= smallest
+                value = getattr(params, field)
+                for x in value if isinstance(value, tuple) else (value,):  # (gms: a list)
+                    assert math.isfinite(x) and abs(x) <= largest
+                    assert x == 0 or abs(x) >= smallest
 
 
 @SETTINGS

@@ -16,6 +16,7 @@ import vibrofriction
 from vibrofriction import planar
 from vibrofriction import rig as rig_module
 from vibrofriction.params import LIMITS, RigParameters, default_friction
+from vibrofriction.vocabulary import TERMS_BY_NAME
 
 KEEP = object()
 
@@ -242,10 +243,14 @@ def test_the_plugin_range_of_an_attribute_equals_its_python_limit(name):
     refused with a message naming the attribute and its range, which must be LIMITS[name]."""
     smallest, largest = LIMITS[name]
     instance, key = PLUGIN_ATTRIBUTES[name]
+    law = "gms" if name.startswith("gms_") else "dahl"  # (the gms keys: the gms scene's)
+    elements = len(default_friction("gms").gms_stiffness_N_per_m)
 
     def compile_with(value: float) -> str | None:
-        spec = _spec()
-        _set_config(spec, instance, {key: repr(float(value))})
+        spec = _spec(law)
+        text = " ".join([repr(float(value))] * elements) if TERMS_BY_NAME.get(name) and \
+            TERMS_BY_NAME[name].is_list else repr(float(value))
+        _set_config(spec, instance, {key: text})
         try:
             spec.compile()
         except ValueError as error:

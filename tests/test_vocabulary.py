@@ -15,7 +15,7 @@ from vibrofriction import averaged, planar, rig
 from vibrofriction._native import _LawParameters
 from vibrofriction.params import LAWS, LIMITS, FrictionParameters
 from vibrofriction.vocabulary import (ALL_ELEMENTS, ALL_LAWS, FRICTION_TERMS, LAW_STRUCT_FIELDS,
-                                      TERMS_BY_NAME, element_keys)
+                                      MAX_GMS_ELEMENTS, PAPER_LAWS, TERMS_BY_NAME, element_keys)
 
 ROOT = Path(__file__).resolve().parents[1]
 CPP = ROOT / "plugin" / "cpp"
@@ -130,7 +130,17 @@ def test_the_cpp_law_parameters_have_the_tables_defaults() -> None:
     enum = re.search(r"enum class Law : int \{(.*?)\};", header).group(1)
     values = {name.lower(): int(value) for name, value in re.findall(r"k(\w+) = (\d+)", enum)}
     assert values == {law: index for index, law in enumerate(ALL_LAWS)}
-    assert LAWS == ALL_LAWS
+    assert LAWS == PAPER_LAWS == ALL_LAWS[:4]  # the study's and identification's laws
+    # law gms's elements: GmsElements, with the table's defaults and bound
+    gms = re.search(r"struct GmsElements \{(.*?)\n\};", header, re.S).group(1)
+    assert re.search(r"int count = 0;", gms)
+    assert int(re.search(r"kMaxGmsElements = (\d+);", header).group(1)) == MAX_GMS_ELEMENTS
+    lists = re.findall(r"double (\w+)\[kMaxGmsElements\] = \{\};", gms)
+    assert lists == ["stiffness", "weight"]
+    assert [t.name for t in FRICTION_TERMS if t.is_list] == ["gms_stiffness_N_per_m",
+                                                              "gms_weights"]
+    relaxation = re.search(r"double relaxation_time = ([^;]+);", gms).group(1)
+    assert _number(relaxation) == TERMS_BY_NAME["gms_relaxation_time_s"].default
 
 
 def test_the_config_readers_read_each_key_into_its_field_with_the_tables_default() -> None:
@@ -140,9 +150,17 @@ def test_the_config_readers_read_each_key_into_its_field_with_the_tables_default
     constants = _key_constants(sources)
     read = {constants[key]: (field, _number(value)) for key, field, value in re.findall(
         r"\{(k\w+), &\w+\.(\w+), ([-+0-9.eE]+)\}", sources)}
+    read.update({constants[key]: (field, _number(value)) for key, value, field in re.findall(
+        r"ReadNumber\(m, instance, plugin, (k\w+), ([-+0-9.eE]+), &\w+\.(\w+)\)", sources)})
+    # a list (law gms's elements) is read whole; its default is empty
+    read.update({constants[key]: (None, ()) for key in re.findall(
+        r"ReadNumberList\(m, instance, plugin, (k\w+),", sources)})
     for term in FRICTION_TERMS:
         assert term.mjcf_key in read, f"{term.mjcf_key} is not read by the friction element"
         field, default = read[term.mjcf_key]
+        if term.is_list:
+            assert default == term.default == (), term.name
+            continue
         assert default == pytest.approx(term.default, rel=1e-12), term.name
         if term.law_field:
             assert field == term.law_field, term.name
@@ -192,8 +210,11 @@ def test_the_docs_parameter_table_names_each_key_unit_default_and_laws() -> None
         assert cells[1] == f"`{term.mjcf_key}`", term.name
         assert _units(cells[3]) == [term.unit], term.name
         documented = re.match(r"[-+0-9.e]+", cells[4])
-        assert documented and float(documented.group(0)) == pytest.approx(term.default), \
-            term.name
+        if term.is_list:  # no default: required, or a rule
+            assert documented is None and cells[4].startswith("—"), term.name
+        else:
+            assert documented and float(documented.group(0)) == pytest.approx(term.default), \
+                term.name
         assert _laws(cells[5]) == set(term.laws), f"{term.name}: simulation.md says {cells[5]}"
 
 
@@ -248,7 +269,10 @@ def test_interfaces_docs_friction_key_table_gives_each_key_its_name_unit_and_def
         assert term is not None, f"{keys}: not one table key"
         assert name_cell == f"`{term.name}`", term.mjcf_key
         assert _units(unit_cell) == [term.unit], term.mjcf_key
-        assert float(default_cell) == pytest.approx(term.default), term.mjcf_key
+        if term.is_list:
+            assert default_cell == "—", term.mjcf_key
+        else:
+            assert float(default_cell) == pytest.approx(term.default), term.mjcf_key
     assert len(listed) == len(set(listed)), "a key listed twice"
     takes = OWN_KEYS["friction"] | set(element_keys("friction").values())
     assert set(listed) == takes, f"missing: {takes - set(listed)}; not taken: {set(listed) - takes}"

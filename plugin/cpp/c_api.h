@@ -16,7 +16,7 @@ extern "C" {
 #endif
 
 typedef struct vf_law_parameters {
-  int law;  // 0 coulomb, 1 dahl, 2 dupont, 3 lugre
+  int law;  // 0 coulomb, 1 dahl, 2 dupont, 3 lugre (4 gms: vf_run_gms_law)
   double friction_coefficient, normal_force, contact_stiffness, alpha, breakaway_ratio,
       bristle_damping, viscous, static_ratio, stribeck_velocity, asymmetry, ripple,
       ripple_wavelength, ripple_phase, normal_modulation, normal_modulation_frequency,
@@ -34,6 +34,17 @@ VF_EXPORT int vf_mujoco_header_version(void);
 VF_EXPORT int vf_run_law(const vf_law_parameters* params, int n, const double* time,
                const double* velocity, const double* position, const double* normal_force,
                double z0, double* force_out, double* deflection_out);
+
+// Law gms (params->law 4) along samples as vf_run_law, with its `count` elements (1 to 16):
+// stiffness[count] (N/m, > 0), weight[count] (> 0, summing to 1) and the relaxation time (s,
+// >= 0). z0[count] are the initial deflections (NULL: 0), all elements start stuck. Writes
+// force_out[n] (N) and deflection_out[n * count] (m, sample-major). Returns 0, or -1 on bad
+// arguments.
+VF_EXPORT int vf_run_gms_law(const vf_law_parameters* params, int count, const double* stiffness,
+                             const double* weight, double relaxation_time, int n,
+                             const double* time, const double* velocity, const double* position,
+                             const double* normal_force, const double* z0, double* force_out,
+                             double* deflection_out);
 
 // The planar law (plugin/cpp/planar_friction.cc) along a prescribed velocity history, same step
 // order as vf_run_law. Coulomb is kinematic (no stick solve). Effects other than the normal-load

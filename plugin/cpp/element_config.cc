@@ -1,5 +1,8 @@
 #include "element_config.h"
 
+#include <cmath>
+#include <vector>
+
 #include "plugin_util.h"
 
 namespace vibrofriction {
@@ -10,17 +13,91 @@ bool RejectAttribute(const char* plugin, const char* attr, double value, const c
   return ConfigError("%s: attribute '%s'=\"%g\" %s", plugin, attr, value, rule);
 }
 
-bool ReadLawParameters(const mjModel* m, int instance, const char* plugin, LawParameters* out) {
+// The gms elements: stiffnesses (required), weights (default equal shares; they must sum to 1)
+// and the relaxation time.
+static bool ReadGmsElements(const mjModel* m, int instance, const char* plugin, GmsElements* out) {
+  std::vector<double> stiffness, weight;
+  if (!ReadNumberList(m, instance, plugin, kGmsStiffness, &stiffness) ||
+      !ReadNumberList(m, instance, plugin, kGmsWeight, &weight)) {
+    return false;
+  }
+  const int count = static_cast<int>(stiffness.size());
+  if (count < 1 || count > kMaxGmsElements) {
+    return ConfigError("%s: law gms needs 'gms_stiffness', the elements' stiffnesses (N/m), 1 to "
+                       "%d values separated by spaces (it has %d), e.g. gms_stiffness=\"4e7 2e7 "
+                       "1e7\"", plugin, kMaxGmsElements, count);
+  }
+  if (weight.empty()) weight.assign(count, 1.0 / count);
+  if (static_cast<int>(weight.size()) != count) {
+    return ConfigError("%s: 'gms_weight' has %d values and 'gms_stiffness' %d; give one weight "
+                       "(share of the friction level) per element, or none for equal shares",
+                       plugin, static_cast<int>(weight.size()), count);
+  }
+  double total = 0.0;
+  for (int i = 0; i < count; ++i) {
+    if (!(stiffness[i] > 0)) {
+      return RejectAttribute(plugin, kGmsStiffness, stiffness[i], "has a value <= 0; each "
+                             "element's stiffness must be > 0 (N/m)");
+    }
+    if (!(weight[i] > 0)) {
+      return RejectAttribute(plugin, kGmsWeight, weight[i], "has a value <= 0; each element's "
+                             "share of the level must be > 0");
+    }
+    total += weight[i];
+  }
+  if (std::fabs(total - 1.0) > 1e-6) {
+    return RejectAttribute(plugin, kGmsWeight, total, "sums to this; the elements' shares of the "
+                           "friction level must sum to 1");
+  }
+  GmsElements g;
+  g.count = count;
+  for (int i = 0; i < count; ++i) {
+    g.stiffness[i] = stiffness[i];
+    g.weight[i] = weight[i] / total;  // exactly 1 in all
+  }
+  if (!ReadNumber(m, instance, plugin, kGmsRelaxationTime, 0.0, &g.relaxation_time)) return false;
+  if (g.relaxation_time < 0) {
+    return RejectAttribute(plugin, kGmsRelaxationTime, g.relaxation_time,
+                           "must be >= 0 (s; 0: a slipping element is at its level at once)");
+  }
+  *out = g;
+  return true;
+}
+
+int GmsElementCount(const mjModel* m, int instance) {
+  const char* law_name = mj_getPluginConfig(m, instance, kLaw);
+  Law law;
+  if (!law_name || !ParseLaw(law_name, &law) || law != Law::kGms) return 0;
+  const char* text = mj_getPluginConfig(m, instance, kGmsStiffness);
+  if (!text) return 0;
+  // (count only: ReadLawParameters reports a bad list)
+  int count = 0;
+  for (const char* c = text; *c;) {
+    while (*c == ' ' || *c == '\t' || *c == '\n' || *c == '\r') ++c;
+    if (!*c) break;
+    ++count;
+    while (*c && *c != ' ' && *c != '\t' && *c != '\n' && *c != '\r') ++c;
+  }
+  return count <= kMaxGmsElements ? count : 0;
+}
+
+bool ReadLawParameters(const mjModel* m, int instance, const char* plugin, LawParameters* out,
+                       bool takes_gms) {
   LawParameters p = *out;
   const char* law_name = mj_getPluginConfig(m, instance, kLaw);
   if (law_name == nullptr || law_name[0] == '\0') {
     ConfigError("%s: attribute 'law' is missing; add <config key=\"law\" value=\"dahl\"/> "
-                "(one of coulomb, dahl, dupont, lugre)", plugin);
+                "(one of coulomb, dahl, dupont, lugre%s)", plugin, takes_gms ? ", gms" : "");
     return false;
   }
   if (!ParseLaw(law_name, &p.law)) {
     ConfigError("%s: attribute 'law'=\"%s\" is not a friction law; use one of coulomb, dahl, "
-                "dupont, lugre", plugin, law_name);
+                "dupont, lugre%s", plugin, law_name, takes_gms ? ", gms" : "");
+    return false;
+  }
+  if (p.law == Law::kGms && !takes_gms) {
+    ConfigError("%s: law 'gms' (generalized Maxwell-slip) is taken by vibrofriction.friction "
+                "and vibrofriction.planar only; use dahl, lugre or dupont here", plugin);
     return false;
   }
   const struct {
@@ -47,6 +124,14 @@ bool ReadLawParameters(const mjModel* m, int instance, const char* plugin, LawPa
   }
   if (p.friction_coefficient < 0) {
     return RejectAttribute(plugin, kMu, p.friction_coefficient, "must be >= 0");
+  }
+  if (p.law == Law::kGms) {
+    if (!ReadGmsElements(m, instance, plugin, &p.gms)) return false;
+    if (p.bristle_damping != 0) {
+      return RejectAttribute(plugin, kSigma1, p.bristle_damping,
+                             "is not a gms parameter (its elements have no bristle damping); "
+                             "remove sigma1, or use viscous for a damping in sliding");
+    }
   }
   if (HasDeflection(p.law) && p.contact_stiffness <= 0) {
     return RejectAttribute(plugin, kStiffness, p.contact_stiffness,

@@ -30,6 +30,10 @@ inline constexpr char kStribeckVelocity[] = "stribeck_velocity";
 inline constexpr char kNormalModulation[] = "normal_modulation";
 inline constexpr char kModulationFrequency[] = "modulation_frequency";
 inline constexpr char kModulationPhase[] = "modulation_phase";
+// law gms (vibrofriction.friction and .planar)
+inline constexpr char kGmsStiffness[] = "gms_stiffness";
+inline constexpr char kGmsWeight[] = "gms_weight";
+inline constexpr char kGmsRelaxationTime[] = "gms_relaxation_time";
 // the averaged elements' vibration and table (vibrofriction.averaged, .contact_averaged)
 inline constexpr char kVelocityAmplitude[] = "velocity_amplitude";
 inline constexpr char kTableXi[] = "table_xi";
@@ -43,9 +47,16 @@ bool RejectAttribute(const char* plugin, const char* attr, double value, const c
 
 // Reads `law` and the parameters every law shares (mu, stiffness, alpha, breakaway, sigma1,
 // viscous, static_ratio, stribeck_velocity, normal_modulation, modulation_frequency,
-// modulation_phase), strictly parsed and range-checked. On a bad value records the error, naming
-// the attribute and the fix, and returns false. Leaves the other fields of *p as they are.
-bool ReadLawParameters(const mjModel* m, int instance, const char* plugin, LawParameters* p);
+// modulation_phase), strictly parsed and range-checked, and with `takes_gms` law gms and its
+// elements (gms_stiffness, gms_weight, gms_relaxation_time); an element without takes_gms
+// refuses law gms. On a bad value records the error, naming the attribute and the fix, and
+// returns false. Leaves the other fields of *p as they are.
+bool ReadLawParameters(const mjModel* m, int instance, const char* plugin, LawParameters* p,
+                       bool takes_gms = false);
+
+// The number of gms elements the config declares (the count of gms_stiffness values; 0 for
+// another law or a bad list): the element's state size, known before the model is complete.
+int GmsElementCount(const mjModel* m, int instance);
 
 // The normal load F_N = normal + normal_gain * (sensor value, or the normal force of the
 // contacts between contact_geom1 and contact_geom2). Sensors of the acceleration stage and

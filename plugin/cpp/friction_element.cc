@@ -26,7 +26,8 @@ const char* const kAttributes[] = {
     kLaw, kMu, kNormal, kNormalSensor, kNormalGain, kNormalComponent, kContactGeom1,
     kContactGeom2, kStiffness, kAlpha, kBreakaway, kSigma1, kViscous, kStaticRatio,
     kStribeckVelocity, kAsymmetry, kRipple, kRippleWavelength, kRipplePhase, kNormalModulation,
-    kModulationFrequency, kModulationPhase, kForceOffset, kSensorLag};
+    kModulationFrequency, kModulationPhase, kForceOffset, kSensorLag, kGmsStiffness, kGmsWeight,
+    kGmsRelaxationTime};
 
 constexpr char kPlugin[] = "vibrofriction.friction";
 
@@ -110,7 +111,7 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
                                ReadScope scope) {
   FrictionConfig c;
   LawParameters& p = c.law;
-  if (!ReadLawParameters(m, instance, kPlugin, &p)) return false;
+  if (!ReadLawParameters(m, instance, kPlugin, &p, /*takes_gms=*/true)) return false;
   if (!NormalLoad::FromModel(m, instance, kPlugin, scope, &c.normal)) return false;
   p.normal_force = c.normal.normal;
 
@@ -145,19 +146,28 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
   }
   if (!CheckIntegrator(m, kPlugin)) return false;
   // plugin_state: [contact normal force (if contact geoms)] [lagged friction (if sensor_lag)]
+  // [gms elements' slip flags]
   c.lag_state = NormalLoad::StateSize(m, instance);
+  c.slip_state = c.lag_state + (c.sensor_lag > 0 ? 1 : 0);
+  const int deflections = p.law == Law::kGms ? p.gms.count : 1;
 
   c.actuator = FindActuator(m, instance, kPlugin);
   if (c.actuator < 0) return false;
   if (scope == ReadScope::kAttributes) return true;  // the actuator's fields are not set yet
   if (m->actuator_actnum[c.actuator] < 1) {
-    ConfigError("%s: the actuator has no state for the deflection z; add actdim=\"1\" to the "
-                "actuator plugin element", kPlugin);
+    ConfigError("%s: the actuator has no state for the deflection z; add actdim=\"%d\" to the "
+                "actuator plugin element", kPlugin, deflections);
     return false;
   }
-  if (m->actuator_actnum[c.actuator] != 1) {
-    ConfigError("%s: actdim=\"%d\"; the element keeps one deflection z: write actdim=\"1\"",
-                kPlugin, m->actuator_actnum[c.actuator]);
+  if (m->actuator_actnum[c.actuator] != deflections) {
+    if (p.law == Law::kGms) {
+      ConfigError("%s: actdim=\"%d\"; law gms keeps one deflection per element and "
+                  "gms_stiffness names %d: write actdim=\"%d\"", kPlugin,
+                  m->actuator_actnum[c.actuator], deflections, deflections);
+    } else {
+      ConfigError("%s: actdim=\"%d\"; the element keeps one deflection z: write actdim=\"1\"",
+                  kPlugin, m->actuator_actnum[c.actuator]);
+    }
     return false;
   }
   if (!CheckTransmission(m, c.actuator)) return false;
@@ -201,6 +211,21 @@ void FrictionElement::Compute(const mjModel* m, mjData* d, int instance) {
   }
   const LawParameters& p = config_->law;
   const double velocity = d->actuator_velocity[config_->output];
+  if (p.law == Law::kGms) {
+    const double* z = d->act + config_->act_address;
+    double friction = 0.0;
+    if (p.viscous == 0) {
+      GmsElementForce<1>(p, z, &friction);
+      friction += p.force_offset;
+    } else {
+      const StepResponse response =
+          ComputeStepResponse(m, d, config_->output, &response_workspace_);
+      const double B = m->opt.timestep * response.inverse_mass;
+      GmsImplicitForce<1>(p, z, &velocity, &response.velocity_free, &B, &friction);
+    }
+    d->actuator_force[config_->output] = -friction;
+    return;
+  }
   const double z = d->act[config_->act_address];
   if (HasDeflection(p.law) && p.bristle_damping == 0 && p.viscous == 0) {
     // The common case, kept lean: no level, no input needed.
@@ -234,7 +259,7 @@ void FrictionElement::WriteSensor(const mjModel* m, mjData* d, int instance, mjt
   const LawInput in = Input(m, d, instance, d->actuator_velocity[config_->output]);
   const double friction = -d->actuator_force[config_->output];
   out[0] = friction;
-  out[1] = HasDeflection(config_->law.law) ? d->act[config_->act_address] : 0.0;
+  out[1] = Deflection(d);
   out[2] = in.velocity;
   out[3] = ModulatedNormalLoad(config_->law, in);  // < 0: lifted off, the law uses 0
   out[4] = config_->sensor_lag > 0
@@ -261,14 +286,30 @@ void FrictionElement::Advance(const mjModel* m, mjData* d, int instance) {
   in.time = d->time - 0.5 * dt;  // mid-step: time has already advanced
   in.position += 0.5 * dt * in.velocity;
   mjtNum* z = d->act + config_->act_address;
+  if (config_->law.law == Law::kGms) {
+    AdvanceGms<1>(config_->law, in, &in.velocity, z, state + config_->slip_state, dt);
+    return;
+  }
   *z = AdvanceDeflection(config_->law, in, *z, dt);
+}
+
+double FrictionElement::Deflection(const mjData* d) const {
+  const LawParameters& p = config_->law;
+  if (!HasDeflection(p.law)) return 0.0;
+  const mjtNum* z = d->act + config_->act_address;
+  if (p.law != Law::kGms) return z[0];
+  // gms: the one deflection with the same elastic force over the total stiffness
+  double force = 0.0, stiffness = 0.0;
+  GmsElementForce<1>(p, z, &force);
+  for (int i = 0; i < p.gms.count; ++i) stiffness += p.gms.stiffness[i];
+  return force / stiffness;
 }
 
 int FrictionElement::StateSize(const mjModel* m, int instance) {
   double lag = 0.0;
   const char* text = mj_getPluginConfig(m, instance, kSensorLag);
   if (text && text[0]) lag = std::strtod(text, nullptr);
-  return NormalLoad::StateSize(m, instance) + (lag > 0 ? 1 : 0);
+  return NormalLoad::StateSize(m, instance) + (lag > 0 ? 1 : 0) + GmsElementCount(m, instance);
 }
 
 void FrictionElement::RegisterPlugin() {

@@ -1,7 +1,8 @@
 // Actuator (+ optional sensor) plugin "vibrofriction.friction": a dynamic friction element on one
 // actuator transmission (a slide joint of a body relative to its support, or a fixed tendon
 // x_body - x_support). The transmission velocity is the relative velocity v_r; the actuator
-// applies -F_F. The deflection z is mjData.act[actadr] (declare actdim="1").
+// applies -F_F. The deflection z is mjData.act[actadr] (declare actdim="1"); law gms keeps one
+// per element in act (actdim = the number of elements) and their slip flags in plugin_state.
 //
 // The force of step n uses (z_n, v_n); after MuJoCo integrates the velocity, `advance` replaces z
 // by the closed-form (Dahl, LuGre) or unconditionally stable (Dupont) update with the *new*
@@ -31,6 +32,7 @@ struct FrictionConfig {
   int act_address = -1;     // z lives at act[act_address]
   NormalLoad normal;        // F_N from the config, a sensor or the contacts of two geoms
   int lag_state = 0;        // plugin_state offset of the lagged friction force
+  int slip_state = 0;       // plugin_state offset of the gms elements' slip flags
   double sensor_lag = 0.0;  // first-order lag of the reported friction force (s)
 
   // Reads and validates every attribute (and, with ReadScope::kAll, the actuator); returns
@@ -42,7 +44,8 @@ struct FrictionConfig {
 class FrictionElement {
  public:
   static constexpr char kName[] = "vibrofriction.friction";
-  static constexpr int kSensorDim = 5;  // F_F, z, v_r, F_N (modulated), F_F lagged
+  // F_F, z (gms: sum k_i z_i / sum k_i), v_r, F_N (modulated), F_F lagged
+  static constexpr int kSensorDim = 5;
 
   // From a validated config (SetPluginCallbacks builds one per plugin instance).
   explicit FrictionElement(CachedConfig<FrictionConfig> config) : config_(std::move(config)) {}
@@ -56,6 +59,7 @@ class FrictionElement {
 
  private:
   LawInput Input(const mjModel* m, const mjData* d, int instance, double velocity) const;
+  double Deflection(const mjData* d) const;  // the sensor's z
 
   CachedConfig<FrictionConfig> config_;
   StepResponseWorkspace response_workspace_;

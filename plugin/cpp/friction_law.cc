@@ -160,6 +160,7 @@ double DeflectionRate(const LawParameters& p, const LawInput& in, double z) {
       return v * (1.0 - DupontShape(zeta, z_ba, z_max) * zeta / z_max);
     }
     case Law::kCoulomb:
+    case Law::kGms:  // (its own state: AdvanceGms)
       return 0.0;
   }
   return 0.0;
@@ -192,6 +193,7 @@ double AdvanceDeflection(const LawParameters& p, const LawInput& in, double z, d
     case Law::kDupont:
       return AdvanceDupont(p, in, z, dt);
     case Law::kCoulomb:
+    case Law::kGms:  // (its own state: AdvanceGms)
       return 0.0;
   }
   return z;
@@ -387,6 +389,7 @@ void VectorDeflectionRate(const LawParameters& p, const LawInput& in, const doub
       return;
     }
     case Law::kCoulomb:
+    case Law::kGms:  // (its own state: AdvanceGms)
       return;
   }
 }
@@ -431,6 +434,7 @@ void AdvanceVectorDeflection(const LawParameters& p, const LawInput& in, const d
       AdvanceVectorDupont<N>(p, at, dir, speed, z, dt);
       return;
     case Law::kCoulomb:
+    case Law::kGms:  // (its own state: AdvanceGms)
       return;
   }
 }
@@ -671,11 +675,115 @@ void PlanarKinematicCoulombForce(const LawParameters& p, const LawInput& in, con
   force[1] = level * dir[1] + p.viscous * v[1];
 }
 
+// ---- Generalized Maxwell-slip ----------------------------------------------------------------
+
+namespace {
+
+// Time t in [0, dt] at which |z + v t| reaches `limit` (|z| < limit, v != 0): the positive root
+// of |v|^2 t^2 + 2 (z.v) t + |z|^2 - limit^2 = 0, written without cancellation.
+template <int D>
+double CrossingTime(const double* z, const double v[D], double limit) {
+  const double a = Dot<D>(v, v);
+  const double b = Dot<D>(z, v);
+  const double c = Dot<D>(z, z) - limit * limit;
+  const double root = std::sqrt(std::max(b * b - a * c, 0.0));
+  return b >= 0 ? -c / (b + root) : (root - b) / a;
+}
+
+}  // namespace
+
+template <int D>
+void AdvanceGms(const LawParameters& p, const LawInput& in, const double v[D], double* z,
+                double* slipping, double dt) {
+  if (dt <= 0) return;
+  double speed = 0.0;
+  for (int j = 0; j < D; ++j) speed += v[j] * v[j];
+  speed = std::sqrt(speed);
+  const double level = StribeckLevel(p, AtSpeed(in, D == 1 ? v[0] : speed));
+  for (int i = 0; i < p.gms.count; ++i) {
+    double* zi = z + D * i;
+    const double limit = std::max(p.gms.weight[i] * level, 0.0) / p.gms.stiffness[i];
+    if (slipping[i] != 0 && !(Dot<D>(v, zi) > 0)) slipping[i] = 0;  // reversed or stopped
+    double remaining = dt;
+    if (slipping[i] == 0) {
+      double trial[D];
+      for (int j = 0; j < D; ++j) trial[j] = zi[j] + v[j] * dt;
+      const double trial_norm = std::sqrt(Dot<D>(trial, trial));
+      if (trial_norm <= limit) {  // sticks the whole step
+        for (int j = 0; j < D; ++j) zi[j] = trial[j];
+        continue;
+      }
+      if (!(Dot<D>(v, trial) > 0)) {
+        // Unloading, yet beyond a level that fell (Stribeck, load): back to the level.
+        for (int j = 0; j < D; ++j) zi[j] = limit * trial[j] / trial_norm;
+        continue;
+      }
+      // Loading through the level: stick until the crossing, slip for the rest of the step.
+      const double t_cross =
+          Dot<D>(zi, zi) < limit * limit ? std::min(CrossingTime<D>(zi, v, limit), dt) : 0.0;
+      for (int j = 0; j < D; ++j) zi[j] += v[j] * t_cross;
+      remaining = dt - t_cross;
+      slipping[i] = 1;
+    }
+    // Slipping: the magnitude relaxes to the level, along the elastic trial direction.
+    double trial[D];
+    for (int j = 0; j < D; ++j) trial[j] = zi[j] + v[j] * remaining;
+    const double trial_norm = std::sqrt(Dot<D>(trial, trial));
+    if (!(trial_norm > 0)) continue;
+    const double magnitude = std::sqrt(Dot<D>(zi, zi));
+    const double relaxed =
+        p.gms.relaxation_time > 0
+            ? limit + (magnitude - limit) * std::exp(-remaining / p.gms.relaxation_time)
+            : limit;
+    for (int j = 0; j < D; ++j) zi[j] = relaxed * trial[j] / trial_norm;
+  }
+}
+
+template <int D>
+void GmsElementForce(const LawParameters& p, const double* z, double force[D]) {
+  for (int j = 0; j < D; ++j) force[j] = 0.0;
+  for (int i = 0; i < p.gms.count; ++i) {
+    for (int j = 0; j < D; ++j) force[j] += p.gms.stiffness[i] * z[D * i + j];
+  }
+}
+
+template <int D>
+void GmsImplicitForce(const LawParameters& p, const double* z, const double v[D],
+                      const double v_free[D], const double B[D * D], double force[D]) {
+  double rhs[D];
+  GmsElementForce<D>(p, z, rhs);
+  if (D == 1) rhs[0] += p.force_offset;
+  if (p.viscous == 0) {
+    for (int j = 0; j < D; ++j) force[j] = rhs[j];
+    return;
+  }
+  // F = E + sigma2 (v + v_free - B F) / 2  <=>  (I + sigma2 B / 2) F = E + sigma2 (v + v_free)/2
+  double A[D * D];
+  for (int r = 0; r < D; ++r) {
+    rhs[r] += 0.5 * p.viscous * (v[r] + v_free[r]);
+    for (int c = 0; c < D; ++c) A[D * r + c] = (r == c ? 1.0 : 0.0) + 0.5 * p.viscous * B[D * r + c];
+  }
+  if (!SolveLinear<D>(A, rhs, 1e-300, force)) {
+    for (int j = 0; j < D; ++j) force[j] = rhs[j];  // (B is PSD: I + sB/2 is never singular)
+  }
+}
+
+template void AdvanceGms<1>(const LawParameters&, const LawInput&, const double*, double*,
+                            double*, double);
+template void AdvanceGms<2>(const LawParameters&, const LawInput&, const double*, double*,
+                            double*, double);
+template void GmsElementForce<1>(const LawParameters&, const double*, double*);
+template void GmsElementForce<2>(const LawParameters&, const double*, double*);
+template void GmsImplicitForce<1>(const LawParameters&, const double*, const double*,
+                                  const double*, const double*, double*);
+template void GmsImplicitForce<2>(const LawParameters&, const double*, const double*,
+                                  const double*, const double*, double*);
+
 bool ParseLaw(const char* name, Law* law) {
   if (!name) return false;
   static const struct { const char* name; Law law; } kNames[] = {
       {"coulomb", Law::kCoulomb}, {"dahl", Law::kDahl}, {"dupont", Law::kDupont},
-      {"lugre", Law::kLuGre}};
+      {"lugre", Law::kLuGre}, {"gms", Law::kGms}};
   for (const auto& entry : kNames) {
     if (std::strcmp(name, entry.name) == 0) {
       *law = entry.law;
@@ -691,6 +799,7 @@ const char* LawName(Law law) {
     case Law::kDahl: return "dahl";
     case Law::kDupont: return "dupont";
     case Law::kLuGre: return "lugre";
+    case Law::kGms: return "gms";
   }
   return "unknown";
 }

@@ -10,6 +10,7 @@
 //   dahl     dz/dt = v |w|^alpha sgn(w), w = 1 - k_t z sgn(v) / g(v)    (Dahl 1968)
 //   dupont   dz/dt = v (1 - a(z, v) z / z_ss(v))                         (Dupont et al. 2002)
 //   lugre    dz/dt = v - |v| z s0 / g(v)                                 (Canudas de Wit 1995)
+//   gms      N elasto-slide elements in parallel, F = sum k_i z_i        (Al-Bender et al. 2005)
 // with g(v) = F_c + (F_s - F_c) exp(-(v/v_s)^2), F_c = mu F_N (times the effect factors):
 // the same velocity-dependent level bounds Dahl's, LuGre's and Dupont's deflection.
 #ifndef VIBROFRICTION_FRICTION_LAW_H_
@@ -23,7 +24,20 @@ namespace vibrofriction {
 
 inline constexpr double kPi = 3.14159265358979323846;
 
-enum class Law : int { kCoulomb = 0, kDahl = 1, kDupont = 2, kLuGre = 3 };
+enum class Law : int { kCoulomb = 0, kDahl = 1, kDupont = 2, kLuGre = 3, kGms = 4 };
+
+// The generalized Maxwell-slip law's elements (law gms): element i is a spring k_i in series
+// with a slide whose level is weight_i g(v). Its deflection z_i (m) follows the motion while it
+// sticks (dz_i/dt = v); it slips once its force reaches its level in the direction of motion,
+// and then its force relaxes towards weight_i g(v) sgn(v) with the time constant
+// relaxation_time (0: at once, an ideal Jenkins element), until the motion reverses.
+inline constexpr int kMaxGmsElements = 16;
+struct GmsElements {
+  int count = 0;
+  double stiffness[kMaxGmsElements] = {};  // k_i (N/m)
+  double weight[kMaxGmsElements] = {};     // share of the level g(v), summing to 1 (-)
+  double relaxation_time = 0.0;            // tau (s) of a slipping element's force
+};
 
 // Parameters of one friction element; names follow the Python FrictionParameters.
 struct LawParameters {
@@ -46,6 +60,7 @@ struct LawParameters {
   double normal_modulation_frequency = 0.0;  // f_m (Hz)
   double normal_modulation_phase = 0.0;      // phi_m (rad)
   double force_offset = 0.0;                 // constant added to F (N)
+  GmsElements gms;                           // law gms only
 };
 
 // What the law sees at one instant besides its state.
@@ -224,10 +239,39 @@ template <int N>
 void VectorStickSlipForce(const LawParameters& p, const LawInput& in, const double v[N],
                           const double v_free[N], const double B[N * N], double force[N]);
 
+// ---- Generalized Maxwell-slip (law gms) -----------------------------------------------------
+// State: the elements' deflections z (count values in 1D; count vectors of D components in the
+// plane, z[D i + j]) and their slip flags slipping[i] (0 stuck, 1 slipping). The level is
+// g = StribeckLevel at the input's speed; element i slips at |k_i z_i| = weight_i g.
+
+// Advances every element over dt with the velocity v (D components) and the input held
+// constant. A stuck element follows the motion, z_i += v t, up to the time its force reaches
+// its level while loading (an exact crossing of the circle |k_i z_i| = weight_i g in the
+// plane); from then on it slips: |z_i| relaxes to its level as exp(-t / tau) along the elastic
+// trial direction z_i + v t (tau = 0: the return mapping of an ideal Jenkins element, exact in
+// 1D). A slipping element sticks again once v . z_i <= 0 (the motion reverses or stops). An
+// element held beyond a level that fell while unloading is brought back to it at once.
+// D = 1 and D = 2 are instantiated; D = 2 reduces to D = 1 when v and z lie on one axis.
+template <int D>
+void AdvanceGms(const LawParameters& p, const LawInput& in, const double v[D], double* z,
+                double* slipping, double dt);
+
+// sum_i k_i z_i (D components, N): the elements' force, without the viscous term and offset.
+template <int D>
+void GmsElementForce(const LawParameters& p, const double* z, double force[D]);
+
+// The viscous term at the trapezoidal mean of the step's start and end velocities with the end
+// velocity responding to the force, v_next = v_free - B F (B = dt J M^-1 J', D x D): the
+// gms counterpart of ImplicitStateForce / PlanarImplicitStateForce. Returns F (D components)
+// = elements + sigma2 (v + v_next)/2 + offset (offset in 1D only).
+template <int D>
+void GmsImplicitForce(const LawParameters& p, const double* z, const double v[D],
+                      const double v_free[D], const double B[D * D], double force[D]);
+
 // True for the laws that keep a deflection state.
 inline bool HasDeflection(Law law) { return law != Law::kCoulomb; }
 
-// Parses "coulomb" | "dahl" | "dupont" | "lugre"; returns false on anything else.
+// Parses "coulomb" | "dahl" | "dupont" | "lugre" | "gms"; returns false on anything else.
 bool ParseLaw(const char* name, Law* law);
 const char* LawName(Law law);
 

@@ -19,7 +19,8 @@ using namespace keys;  // NOLINT: the shared MJCF keys
 const char* const kAttributes[] = {
     kLaw, kMu, kNormal, kNormalSensor, kNormalGain, kNormalComponent, kContactGeom1,
     kContactGeom2, kStiffness, kAlpha, kBreakaway, kSigma1, kViscous, kStaticRatio,
-    kStribeckVelocity, kNormalModulation, kModulationFrequency, kModulationPhase};
+    kStribeckVelocity, kNormalModulation, kModulationFrequency, kModulationPhase, kGmsStiffness,
+    kGmsWeight, kGmsRelaxationTime};
 
 constexpr char kPlugin[] = "vibrofriction.planar";
 
@@ -148,49 +149,32 @@ void ComputePlanarResponse(const mjModel* m, mjData* d, const int output[2],
   response->B[1] = response->B[2] = offdiag;
 }
 
-bool ReadNumberList(const mjModel* m, int instance, const char* plugin, const char* attr,
-                    std::vector<double>* out) {
-  out->clear();
-  const char* text = mj_getPluginConfig(m, instance, attr);
-  if (text == nullptr || text[0] == '\0') return true;
-  const char* cursor = text;
-  while (true) {
-    while (*cursor == ' ' || *cursor == '\t' || *cursor == '\n' || *cursor == '\r') ++cursor;
-    if (*cursor == '\0') break;
-    char* end = nullptr;
-    errno = 0;
-    const double value = std::strtod(cursor, &end);
-    // as ReadNumber: plain decimals only (strtod also reads "0x10", "1p3", "inf")
-    bool decimal = end != cursor;
-    for (const char* c = cursor; decimal && c < end; ++c) {
-      decimal = *c != 'x' && *c != 'X' && *c != 'p' && *c != 'P';
-    }
-    if (!decimal || errno == ERANGE || !std::isfinite(value) ||
-        std::fabs(value) > kLargestAttribute ||
-        !(*end == '\0' || *end == ' ' || *end == '\t' || *end == '\n' || *end == '\r')) {
-      return ConfigError("%s: attribute '%s' has a non-number at position %d; write finite "
-                         "decimal numbers (at most %g in magnitude) separated by spaces", plugin,
-                         attr, static_cast<int>(cursor - text), kLargestAttribute);
-    }
-    out->push_back(value);
-    cursor = end;
-  }
-  return true;
-}
-
 // ---- PlanarConfig --------------------------------------------------------------------------------
 
 bool PlanarConfig::FromModel(const mjModel* m, int instance, PlanarConfig* config,
                              ReadScope scope) {
   PlanarConfig c;
   LawParameters& p = c.law;
-  if (!ReadLawParameters(m, instance, kPlugin, &p)) return false;
+  if (!ReadLawParameters(m, instance, kPlugin, &p, /*takes_gms=*/true)) return false;
   if (!NormalLoad::FromModel(m, instance, kPlugin, scope, &c.normal)) return false;
   if (!CheckIntegrator(m, kPlugin)) return false;
   p.normal_force = c.normal.normal;
+  c.slip_state = NormalLoad::StateSize(m, instance);
   if (scope == ReadScope::kAttributes) return true;  // the actuators' fields are not set yet
   if (!PlanarTransmission::FromModel(m, instance, kPlugin, /*need_state=*/true, &c.transmission)) {
     return false;
+  }
+  if (p.law == Law::kGms) {
+    for (int k = 0; k < 2; ++k) {
+      const int actdim = m->actuator_actnum[c.transmission.actuator[k]];
+      if (actdim != p.gms.count) {
+        ConfigError("%s: the %c actuator has actdim=\"%d\"; law gms keeps one deflection per "
+                    "element on each axis and gms_stiffness names %d: write actdim=\"%d\" on "
+                    "both actuators", kPlugin, k == 0 ? 'x' : 'y', actdim, p.gms.count,
+                    p.gms.count);
+        return false;
+      }
+    }
   }
   for (int k = 0; k < 2; ++k) c.act_address[k] = m->actuator_actadr[c.transmission.actuator[k]];
   *config = c;
@@ -218,6 +202,20 @@ void PlanarFriction::Compute(const mjModel* m, mjData* d, int instance) {
   const double v[2] = {d->actuator_velocity[out[0]], d->actuator_velocity[out[1]]};
   in.velocity = std::hypot(v[0], v[1]);
   double force[2];
+  if (p.law == Law::kGms) {
+    double z[2 * kMaxGmsElements];
+    GatherGms(d, z);
+    if (p.viscous == 0) {
+      GmsElementForce<2>(p, z, force);
+    } else {
+      PlanarResponse response;
+      ComputePlanarResponse(m, d, out, &scratch_, &response);
+      GmsImplicitForce<2>(p, z, v, response.v_free, response.B, force);
+    }
+    d->actuator_force[out[0]] = -force[0];
+    d->actuator_force[out[1]] = -force[1];
+    return;
+  }
   const double z[2] = {d->act[config_->act_address[0]], d->act[config_->act_address[1]]};
   if (HasDeflection(p.law) && p.bristle_damping == 0 && p.viscous == 0) {
     PlanarStateForce(p, in, v, z, force);
@@ -242,11 +240,22 @@ void PlanarFriction::WriteSensor(const mjModel* m, mjData* d, int instance, mjtN
   }
   const int* out = config_->transmission.output;
   const LawInput in = Input(m, d, instance);
-  const bool state = HasDeflection(config_->law.law);
+  const LawParameters& p = config_->law;
   sensor[0] = -d->actuator_force[out[0]];
   sensor[1] = -d->actuator_force[out[1]];
-  sensor[2] = state ? d->act[config_->act_address[0]] : 0.0;
-  sensor[3] = state ? d->act[config_->act_address[1]] : 0.0;
+  if (p.law == Law::kGms) {
+    // the one deflection with the same elastic force over the total stiffness
+    double z[2 * kMaxGmsElements], force[2], stiffness = 0.0;
+    GatherGms(d, z);
+    GmsElementForce<2>(p, z, force);
+    for (int i = 0; i < p.gms.count; ++i) stiffness += p.gms.stiffness[i];
+    sensor[2] = force[0] / stiffness;
+    sensor[3] = force[1] / stiffness;
+  } else {
+    const bool state = HasDeflection(p.law);
+    sensor[2] = state ? d->act[config_->act_address[0]] : 0.0;
+    sensor[3] = state ? d->act[config_->act_address[1]] : 0.0;
+  }
   sensor[4] = d->actuator_velocity[out[0]];
   sensor[5] = d->actuator_velocity[out[1]];
   sensor[6] = ModulatedNormalLoad(config_->law, in);  // < 0: lifted off, the law uses 0
@@ -263,10 +272,28 @@ void PlanarFriction::Advance(const mjModel* m, mjData* d, int instance) {
   LawInput in = Input(m, d, instance);
   in.time = d->time - 0.5 * dt;  // mid-step: time has already advanced
   const double v[2] = {TransmissionVelocity(m, d, out[0]), TransmissionVelocity(m, d, out[1])};
+  if (config_->law.law == Law::kGms) {
+    double z[2 * kMaxGmsElements];
+    GatherGms(d, z);
+    AdvanceGms<2>(config_->law, in, v, z,
+                  d->plugin_state + m->plugin_stateadr[instance] + config_->slip_state, dt);
+    for (int i = 0; i < config_->law.gms.count; ++i) {
+      d->act[config_->act_address[0] + i] = z[2 * i];
+      d->act[config_->act_address[1] + i] = z[2 * i + 1];
+    }
+    return;
+  }
   double z[2] = {d->act[config_->act_address[0]], d->act[config_->act_address[1]]};
   AdvancePlanarDeflection(config_->law, in, v, z, dt);
   d->act[config_->act_address[0]] = z[0];
   d->act[config_->act_address[1]] = z[1];
+}
+
+void PlanarFriction::GatherGms(const mjData* d, double* z) const {
+  for (int i = 0; i < config_->law.gms.count; ++i) {
+    z[2 * i] = d->act[config_->act_address[0] + i];
+    z[2 * i + 1] = d->act[config_->act_address[1] + i];
+  }
 }
 
 void PlanarFriction::RegisterPlugin() {
@@ -293,7 +320,7 @@ int vf_run_planar_law(const vf_law_parameters* params, int n, const double* time
                       double z0y, double* fx, double* fy, double* zx, double* zy) {
   using namespace vibrofriction;
   if (!params || n < 0 || !time || !vx || !vy || !fx || !fy || !zx || !zy) return -1;
-  if (params->law < 0 || params->law > 3) return -1;
+  if (params->law < 0 || params->law > 3) return -1;  // (gms: vf_run_gms_law)
   if (params->asymmetry != 0 || params->ripple != 0 || params->force_offset != 0) return -1;
   const LawParameters p = LawFromStruct(*params);  // (the refused effects are 0)
   auto input = [&](int i) {

@@ -3,13 +3,16 @@
 // actuators, declared in order x then y, each on a transmission that measures the body's motion
 // relative to the support along one of two orthogonal in-plane directions (slide joints of the
 // body inside the support body, or fixed tendons). Each actuator has actdim="1": the deflection
-// vector z = (z_x, z_y) is (act[x], act[y]).
+// vector z = (z_x, z_y) is (act[x], act[y]). Law gms: actdim = its number of elements on both,
+// element i's z = (act[x + i], act[y + i]), its slip flag in plugin_state.
 //
 // With v = (v_x, v_y) the relative velocity (the two transmission velocities):
 //   dahl    dz/dt = |v| |e|^(alpha-1) e,   e = v/|v| - z/z_c,  z_c = g(|v|) / k_t
 //   lugre   dz/dt = v - |v| z / z_g(|v|),  z_g = g(|v|) / k_t
 //   dupont  dz/dt = v - a(|z|) |v| z / z_max(|v|), a = 0 unless z.v > 0 (loading) and |z| > z_ba
 //   F = k_t z + sigma1 dz/dt + sigma2 v;    the actuators apply -F.
+//   gms     elements i with z_i following v while stuck, |k_i z_i| held at weight_i g(|v|) while
+//           slipping (friction_law.h, AdvanceGms); F = sum k_i z_i + sigma2 v
 //   coulomb F = g(|v|) u/|u| + sigma2 v with u the end-of-step velocity (time-stepping, maximal
 //           dissipation), or the force that stops the body within the step when |F| <= F_s.
 // Each law reduces exactly to the 1D law of vibrofriction.friction when v and z lie on one axis.
@@ -59,15 +62,12 @@ struct PlanarResponse {
 void ComputePlanarResponse(const mjModel* m, mjData* d, const int output[2],
                            std::vector<mjtNum>* scratch, PlanarResponse* response);
 
-// Strict parsing of a whitespace-separated list of finite numbers.
-bool ReadNumberList(const mjModel* m, int instance, const char* plugin, const char* attr,
-                    std::vector<double>* out);
-
 struct PlanarConfig {
   LawParameters law;
   NormalLoad normal;
   PlanarTransmission transmission;
   int act_address[2] = {-1, -1};
+  int slip_state = 0;  // plugin_state offset of the gms elements' slip flags
 
   static bool FromModel(const mjModel* m, int instance, PlanarConfig* config,
                         ReadScope scope = ReadScope::kAll);
@@ -83,7 +83,7 @@ class PlanarFriction {
   explicit PlanarFriction(CachedConfig<PlanarConfig> config) : config_(std::move(config)) {}
   static void RegisterPlugin();
   static int StateSize(const mjModel* m, int instance) {
-    return NormalLoad::StateSize(m, instance);
+    return NormalLoad::StateSize(m, instance) + GmsElementCount(m, instance);
   }
 
   void Compute(const mjModel* m, mjData* d, int instance);
@@ -93,6 +93,8 @@ class PlanarFriction {
 
  private:
   LawInput Input(const mjModel* m, const mjData* d, int instance) const;
+  // The gms elements' deflections, interleaved z[2 i + axis] (act holds each axis's together).
+  void GatherGms(const mjData* d, double* z) const;
 
   CachedConfig<PlanarConfig> config_;
   std::vector<mjtNum> scratch_;

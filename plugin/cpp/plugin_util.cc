@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <cstring>
 #include <type_traits>
+#include <vector>
 
 namespace vibrofriction {
 namespace {
@@ -41,6 +42,8 @@ constexpr NamedRange kRanges[] = {
     {"modulation_phase", {0.0, 1e6}},       // normal_force_modulation_phase_rad
     {"force_offset", {0.0, 1e9}},           // force_offset_N
     {"sensor_lag", {0.0, 1e3}},             // sensor_lag_s
+    {"gms_stiffness", {0.0, 1e18}},         // gms_stiffness_N_per_m (each value)
+    {"gms_relaxation_time", {0.0, 1e3}},    // gms_relaxation_time_s
     {"axis_angle", {0.0, 1e6}},             // rad
     // vibrofriction.motion and the averaged element (params.RigParameters)
     {"frequency", {0.0, 1e7}},              // vibration_frequency_Hz
@@ -277,6 +280,47 @@ StepResponse ComputeStepResponse(const mjModel* m, mjData* d, int out,
   for (int k = 0; k < nnz; ++k) response.inverse_mass += moment[k] * response_row[colind[k]];
   response.velocity_free = d->actuator_velocity[out] + m->opt.timestep * acceleration_free;
   return response;
+}
+
+bool ReadNumberList(const mjModel* m, int instance, const char* plugin, const char* attr,
+                    std::vector<double>* out) {
+  out->clear();
+  const char* text = mj_getPluginConfig(m, instance, attr);
+  if (text == nullptr || text[0] == '\0') return true;
+  const char* cursor = text;
+  while (true) {
+    while (*cursor == ' ' || *cursor == '\t' || *cursor == '\n' || *cursor == '\r') ++cursor;
+    if (*cursor == '\0') break;
+    char* end = nullptr;
+    errno = 0;
+    const double value = std::strtod(cursor, &end);
+    // as ReadNumber: plain decimals only (strtod also reads "0x10", "1p3", "inf")
+    bool decimal = end != cursor;
+    for (const char* c = cursor; decimal && c < end; ++c) {
+      decimal = *c != 'x' && *c != 'X' && *c != 'p' && *c != 'P';
+    }
+    if (!decimal || errno == ERANGE || !std::isfinite(value) ||
+        !(*end == '\0' || *end == ' ' || *end == '\t' || *end == '\n' || *end == '\r')) {
+      return ConfigError("%s: attribute '%s' has a non-number at position %d; write finite "
+                         "decimal numbers separated by spaces", plugin, attr,
+                         static_cast<int>(cursor - text));
+    }
+    const NamedRange* named = FindRange(attr);
+    const AttributeRange range = named ? named->range : AttributeRange{};
+    if (std::fabs(value) > range.largest || (value != 0 && std::fabs(value) < range.smallest)) {
+      char smallest[64] = "";
+      if (range.smallest > 0) {
+        std::snprintf(smallest, sizeof(smallest), " and be 0 or at least %g in magnitude",
+                      range.smallest);
+      }
+      return ConfigError("%s: attribute '%s'=\"%.40s\" holds %g, out of its physical range: "
+                         "each value must lie within +-%g%s (SI units); check the unit", plugin,
+                         attr, text, value, range.largest, smallest);
+    }
+    out->push_back(value);
+    cursor = end;
+  }
+  return true;
 }
 
 }  // namespace vibrofriction

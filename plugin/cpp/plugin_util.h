@@ -52,6 +52,11 @@ enum class ReadScope { kAttributes, kAll };
 bool ReadNumber(const mjModel* m, int instance, const char* plugin, const char* attr,
                 double default_value, double* out);
 
+// Reads a whitespace-separated list of finite decimal numbers (each as ReadNumber's, at most
+// kLargestAttribute in magnitude); a missing key gives an empty list.
+bool ReadNumberList(const mjModel* m, int instance, const char* plugin, const char* attr,
+                    std::vector<double>* out);
+
 // Reads a "true"/"false" attribute (missing -> default); records an error naming it otherwise.
 bool ReadBool(const mjModel* m, int instance, const char* plugin, const char* attr,
               bool default_value, bool* out);

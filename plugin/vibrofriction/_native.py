@@ -9,7 +9,7 @@ import mujoco
 from ._mujoco_plugins import library_path, version_mismatch
 from .vocabulary import LAW_STRUCT_FIELDS
 
-_API_VERSION = 1
+_API_VERSION = 2
 _lock = threading.Lock()
 _library: ctypes.CDLL | None = None
 
@@ -64,5 +64,8 @@ def load() -> ctypes.CDLL:
         lib.vf_run_law.argtypes = [ctypes.POINTER(_LawParameters), ctypes.c_int, dp, dp, dp, dp,
                                    ctypes.c_double, dp, dp]
         lib.vf_run_law.restype = ctypes.c_int
+        lib.vf_run_gms_law.argtypes = [ctypes.POINTER(_LawParameters), ctypes.c_int, dp, dp,
+                                       ctypes.c_double, ctypes.c_int, dp, dp, dp, dp, dp, dp, dp]
+        lib.vf_run_gms_law.restype = ctypes.c_int
         _library = lib
         return lib

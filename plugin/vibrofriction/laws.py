@@ -13,19 +13,22 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._native import _LawParameters, load
-from .params import LAWS, PAPER_NORMAL_FORCE_N, FrictionParameters, ParameterError
-from .vocabulary import FRICTION_TERMS
+from .params import PAPER_NORMAL_FORCE_N, FrictionParameters, ParameterError
+from .vocabulary import ALL_LAWS, FRICTION_TERMS
 
 
 @dataclass(frozen=True)
 class LawRun:
     friction_force_N: np.ndarray
+    # z; law gms: the one deflection with the elements' force, sum k_i z_i / sum k_i (as the
+    # element's sensor reports it)
     deflection_m: np.ndarray
+    element_deflection_m: np.ndarray | None = None  # law gms: (n, elements) z_i, else None
 
 
 def _c_parameters(friction: FrictionParameters, normal_force_N: float) -> _LawParameters:
     return _LawParameters(
-        law=LAWS.index(friction.law),
+        law=ALL_LAWS.index(friction.law),
         normal_force=normal_force_N,
         **{term.law_field: getattr(friction, term.name) for term in FRICTION_TERMS
            if term.law_field})
@@ -57,14 +60,16 @@ def _normal_argument(normal_force_N, n: int) -> tuple[float, np.ndarray | None]:
 
 
 def run_law(friction: FrictionParameters, time_s, relative_velocity_m_per_s, *,
-            normal_force_N=PAPER_NORMAL_FORCE_N, position_m=None, initial_deflection_m: float = 0.0) -> LawRun:
+            normal_force_N=PAPER_NORMAL_FORCE_N, position_m=None,
+            initial_deflection_m: float | tuple[float, ...] = 0.0) -> LawRun:
     """Friction force and deflection along a prescribed history (kinematic driving).
 
     ``normal_force_N`` is a constant or an array over the samples; ``position_m`` (relative
     position on the support) feeds the position-ripple effect. Coulomb has no stick solve here
     (the velocity is given): F = g(v) sgn(v) + sigma2 v, and 0 at v = 0 exactly. There is no
     vibration here, so normal_force_modulation_frequency_Hz = 0 is 0 Hz (as in MJCF), not the
-    vibration frequency it means in the rigs.
+    vibration frequency it means in the rigs. Law gms takes one initial deflection per element
+    (a number: the same for each) and starts with every element stuck.
     """
     friction.validate()
     lib = load()
@@ -81,12 +86,41 @@ def run_law(friction: FrictionParameters, time_s, relative_velocity_m_per_s, *,
         return None if a is None else a.ctypes.data_as(dp)
 
     params = _c_parameters(friction, constant_normal)
+    if friction.law == "gms":
+        return _run_gms(lib, params, friction, t, v, position, normal_array,
+                        initial_deflection_m)
     status = lib.vf_run_law(ctypes.byref(params), n, ptr(t), ptr(v), ptr(position),
                             ptr(normal_array), float(initial_deflection_m), ptr(force),
                             ptr(deflection))
     if status != 0:
         raise ParameterError("the friction-law C API rejected its arguments")
     return LawRun(friction_force_N=force, deflection_m=deflection)
+
+
+def _run_gms(lib, params: _LawParameters, friction: FrictionParameters, t: np.ndarray,
+             v: np.ndarray, position: np.ndarray | None, normal: np.ndarray | None,
+             initial_deflection_m) -> LawRun:
+    n = t.shape[0]
+    stiffness = np.ascontiguousarray(friction.gms_stiffness_N_per_m, dtype=np.float64)
+    weights = np.ascontiguousarray(friction.gms_element_weights, dtype=np.float64)
+    count = stiffness.shape[0]
+    z0 = np.broadcast_to(np.asarray(initial_deflection_m, dtype=np.float64), (count,)).copy() \
+        if np.ndim(initial_deflection_m) == 0 else \
+        _as_c_array(initial_deflection_m, count, "initial_deflection_m")
+    force = np.empty(n)
+    elements = np.empty((n, count))
+    dp = ctypes.POINTER(ctypes.c_double)
+
+    def ptr(a):
+        return None if a is None else a.ctypes.data_as(dp)
+
+    status = lib.vf_run_gms_law(ctypes.byref(params), count, ptr(stiffness), ptr(weights),
+                                float(friction.gms_relaxation_time_s), n, ptr(t), ptr(v),
+                                ptr(position), ptr(normal), ptr(z0), ptr(force), ptr(elements))
+    if status != 0:
+        raise ParameterError("the friction-law C API rejected its arguments")
+    deflection = elements @ stiffness / stiffness.sum()
+    return LawRun(friction_force_N=force, deflection_m=deflection, element_deflection_m=elements)
 
 
 def kinematic_mean_ratio(friction: FrictionParameters, *, drive_velocity_m_per_s: float,

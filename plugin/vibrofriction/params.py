@@ -27,10 +27,13 @@ from dataclasses import dataclass, fields, replace
 from typing import Any, Mapping
 
 from .errors import InputError
-from .vocabulary import ALL_LAWS, DEFAULTS, PAPER_CONTACT_STIFFNESS_N_PER_M
+from .vocabulary import (ALL_LAWS, DEFAULTS, MAX_GMS_ELEMENTS, PAPER_CONTACT_STIFFNESS_N_PER_M,
+                         PAPER_LAWS)
 from .vocabulary import LIMITS as _FRICTION_LIMITS
 
-LAWS = ALL_LAWS  # (the C++ Law enum's order: LAWS.index(law) is its value)
+# The laws the study and identification run (the paper's four); ALL_LAWS adds gms, which the
+# elements simulate. ALL_LAWS is the C++ Law enum's order: ALL_LAWS.index(law) is its value.
+LAWS = PAPER_LAWS
 
 # Paper values (Gutowski & Leus 2012, section 4): p = 0.046 N/mm^2 on S = 1200 mm^2.
 PAPER_NORMAL_FORCE_N = 0.046 * 1200.0
@@ -60,11 +63,12 @@ def _check_limits(params: Any) -> None:
         if not hasattr(params, name):
             continue
         value = getattr(params, name)
-        if isinstance(value, (int, float)) and math.isfinite(value) and (
-                abs(value) > largest or 0 < abs(value) < smallest):
-            rule = f"must lie within +-{largest:g}" + (
-                f" and be 0 or at least {smallest:g} in magnitude" if smallest else "")
-            raise ParameterError(f"parameter {name}={_plain(value)!r} {rule} (SI units)")
+        for item in value if isinstance(value, tuple) else (value,):  # (a list: each value)
+            if isinstance(item, (int, float)) and math.isfinite(item) and (
+                    abs(item) > largest or 0 < abs(item) < smallest):
+                rule = f"must lie within +-{largest:g}" + (
+                    f" and be 0 or at least {smallest:g} in magnitude" if smallest else "")
+                raise ParameterError(f"parameter {name}={_plain(value)!r} {rule} (SI units)")
 
 
 class ParameterError(InputError):
@@ -148,13 +152,46 @@ class FrictionParameters:
         DEFAULTS["normal_force_modulation_frequency_Hz"]
     normal_force_modulation_phase_rad: float = DEFAULTS["normal_force_modulation_phase_rad"]
     force_offset_N: float = DEFAULTS["force_offset_N"]
+    # law gms: element i's stiffness (N/m) and share of the level (default: equal shares), and
+    # the time constant (s) with which a slipping element's force reaches its level (0: at once)
+    gms_stiffness_N_per_m: tuple[float, ...] = DEFAULTS["gms_stiffness_N_per_m"]
+    gms_weights: tuple[float, ...] = DEFAULTS["gms_weights"]
+    gms_relaxation_time_s: float = DEFAULTS["gms_relaxation_time_s"]
     sensor_lag_s: float = DEFAULTS["sensor_lag_s"]  # first-order lag of the reported force
 
+    def __post_init__(self) -> None:
+        # Lists and arrays become tuples of floats: the parameters stay hashable and immutable.
+        for name in ("gms_stiffness_N_per_m", "gms_weights"):
+            value = getattr(self, name)
+            if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+                raise ParameterError(f"parameter {name}={_plain(value)!r} must be a list of "
+                                     "numbers, one per gms element")
+            try:
+                object.__setattr__(self, name, tuple(float(x) for x in value))
+            except (TypeError, ValueError):
+                raise ParameterError(f"parameter {name}={value!r} must be a list of numbers, "
+                                     "one per gms element") from None
+
+    def law_values(self) -> dict[str, Any]:
+        """Every field but ``law`` (the reports' parameter blocks), law gms's element fields
+        only for law gms (elsewhere they are empty and mean nothing)."""
+        gms_only = ("gms_stiffness_N_per_m", "gms_weights", "gms_relaxation_time_s")
+        return {k: v for k, v in dataclasses.asdict(self).items()
+                if k != "law" and (self.law == "gms" or k not in gms_only)}
+
+    @property
+    def gms_element_weights(self) -> tuple[float, ...]:
+        """The gms elements' shares of the level: gms_weights, or equal shares when empty."""
+        count = len(self.gms_stiffness_N_per_m)
+        return self.gms_weights or tuple(1.0 / count for _ in range(count))
+
     def validate(self) -> "FrictionParameters":
-        if self.law not in LAWS:
+        if self.law not in ALL_LAWS:
             raise ParameterError(
-                f"unknown friction law {self.law!r}; use one of: {', '.join(LAWS)}")
+                f"unknown friction law {self.law!r}; use one of: {', '.join(ALL_LAWS)}")
         _check_limits(self)
+        if self.law == "gms":
+            self._validate_gms()
         _require(self.friction_coefficient >= 0, "friction_coefficient",
                  self.friction_coefficient, "must be >= 0")
         if self.law != "coulomb":
@@ -183,6 +220,32 @@ class FrictionParameters:
         _require(self.sensor_lag_s >= 0, "sensor_lag_s", self.sensor_lag_s, "must be >= 0")
         return self
 
+    def _validate_gms(self) -> None:
+        stiffness, weights = self.gms_stiffness_N_per_m, self.gms_weights
+        if not 1 <= len(stiffness) <= MAX_GMS_ELEMENTS:
+            raise ParameterError(
+                f"law gms needs gms_stiffness_N_per_m, the elements' stiffnesses: 1 to "
+                f"{MAX_GMS_ELEMENTS} values (it has {len(stiffness)}), e.g. (4e7, 2e7, 1e7)")
+        if weights and len(weights) != len(stiffness):
+            raise ParameterError(
+                f"gms_weights has {len(weights)} values and gms_stiffness_N_per_m "
+                f"{len(stiffness)}; give one share of the level per element, or none for equal "
+                "shares")
+        for name, values in (("gms_stiffness_N_per_m", stiffness), ("gms_weights", weights)):
+            for value in values:
+                _require(math.isfinite(value) and value > 0, name, values,
+                         "must hold finite values > 0")
+        if weights:
+            _require(abs(sum(weights) - 1.0) <= 1e-6, "gms_weights", weights,
+                     f"must sum to 1 (they sum to {sum(weights):.9g}): the elements' shares of "
+                     "the friction level")
+        _require(self.gms_relaxation_time_s >= 0, "gms_relaxation_time_s",
+                 self.gms_relaxation_time_s, "must be >= 0 (s)")
+        _require(self.bristle_damping_N_s_per_m == 0, "bristle_damping_N_s_per_m",
+                 self.bristle_damping_N_s_per_m,
+                 "is not a gms parameter (its elements have no bristle damping); leave it at 0, "
+                 "or use viscous_N_s_per_m for a damping in sliding")
+
 
 def lugre_default_bristle_damping(contact_stiffness_N_per_m: float, mass_kg: float) -> float:
     """sigma1 at damping ratio 0.1 of the contact resonance: 0.2*sqrt(k_t m)."""
@@ -198,6 +261,9 @@ def _plain(value: Any) -> Any:
     """A numpy scalar as the Python number it holds: messages show 0.5, not np.float64(0.5)."""
     numpy_scalar = type(value).__module__ == "numpy" and getattr(value, "ndim", None) == 0
     return value.item() if numpy_scalar else value
+
+
+_LIST_FIELDS = ("gms_stiffness_N_per_m", "gms_weights")
 
 
 def _all_field_names() -> dict[str, type]:
@@ -222,6 +288,17 @@ def apply_overrides(rig: RigParameters, friction: FrictionParameters,
         if name == "law":
             friction_changes[name] = str(raw)
             continue
+        if name in _LIST_FIELDS:  # "4e7,2e7,1e7" or "4e7 2e7 1e7" (a list as given in Python)
+            items = raw if not isinstance(raw, str) else raw.replace(",", " ").split()
+            try:
+                values = tuple(float(x) for x in items)
+            except (TypeError, ValueError):
+                raise ParameterError(f"parameter {name}={raw!r} must be numbers separated by "
+                                     "commas or spaces, one per gms element") from None
+            if not all(math.isfinite(x) for x in values):
+                raise ParameterError(f"parameter {name}={raw!r} must hold finite numbers")
+            friction_changes[name] = values
+            continue
         try:
             value = float(raw)
         except (TypeError, ValueError):
@@ -235,15 +312,29 @@ def apply_overrides(rig: RigParameters, friction: FrictionParameters,
 
 
 def as_dict(*params: Any) -> dict[str, Any]:
+    """The fields of each parameter set (a FrictionParameters' gms fields only for law gms)."""
     out: dict[str, Any] = {}
     for p in params:
-        out.update(dataclasses.asdict(p))
+        if isinstance(p, FrictionParameters):
+            out.update({"law": p.law, **p.law_values()})
+        else:
+            out.update(dataclasses.asdict(p))
     return out
 
 
+# law gms's default elements (mjcf_models/rig/scene_gms.xml): 80 N/um in all, as the other
+# laws' contact stiffness, the stiffest holding the smallest share so that they slip in turn.
+DEFAULT_GMS_STIFFNESS_N_PER_M = (5e7, 2e7, 1e7)
+DEFAULT_GMS_WEIGHTS = (0.2, 0.3, 0.5)
+
+
 def default_friction(law: str, rig: RigParameters | None = None) -> FrictionParameters:
-    """Defaults per law (LuGre gets its bristle damping from the rig's mass)."""
+    """Defaults per law (LuGre gets its bristle damping from the rig's mass, gms the rig scene's
+    three elements)."""
     friction = FrictionParameters(law=law)
+    if law == "gms":
+        friction = replace(friction, gms_stiffness_N_per_m=DEFAULT_GMS_STIFFNESS_N_PER_M,
+                           gms_weights=DEFAULT_GMS_WEIGHTS)
     if law == "lugre":
         mass = (rig or RigParameters()).mass_kg
         friction = replace(friction, bristle_damping_N_s_per_m=lugre_default_bristle_damping(

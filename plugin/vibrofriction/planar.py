@@ -29,7 +29,7 @@ from .laws import _as_c_array, _c_parameters, _normal_argument, _time_argument
 from .params import PAPER_NORMAL_FORCE_N, FrictionParameters, ParameterError, RigParameters
 from .rig import MJCF_DIR, default_times, initial_state, sensor_slices, set_plugin_config
 from .summary import averaging_window
-from .vocabulary import FRICTION_TERMS, element_keys
+from .vocabulary import FRICTION_TERMS, config_values, element_keys
 
 PLANAR_RIG_PATH = MJCF_DIR / "robots" / "planar_rig_resolved.xml"
 AVERAGED_RIG_PATH = MJCF_DIR / "robots" / "planar_rig_averaged.xml"
@@ -59,9 +59,7 @@ def planar_config(friction: FrictionParameters, *, normal_force_N: float | None 
     No rig here: normal_force_modulation_frequency_Hz is written as it is, so 0 is 0 Hz in the
     MJCF (build_rig_spec writes the rig's vibration frequency in its place)."""
     check_planar(friction)
-    config = {"law": friction.law}
-    for name, key in PLANAR_MJCF_KEYS.items():
-        config[key] = repr(float(getattr(friction, name)))
+    config = {"law": friction.law, **config_values(friction, PLANAR_MJCF_KEYS)}
     if normal_force_N is not None:
         config["normal"] = repr(float(normal_force_N))
     if contact_geoms is not None:
@@ -218,6 +216,9 @@ def build_rig_spec(rig: RigParameters, friction: FrictionParameters, *,
     if friction.normal_force_modulation_frequency_Hz == 0:
         config["modulation_frequency"] = repr(float(f))
     set_plugin_config(spec, "friction", dict(averaged_config) if averaged_config else config)
+    if friction.law == "gms" and not averaged_config:  # one deflection per element and axis
+        for axis in ("x", "y"):
+            spec.actuator(f"friction_{axis}").actdim = len(friction.gms_stiffness_N_per_m)
     return spec
 
 

@@ -23,6 +23,11 @@ Laws (s0 = k_t, s1 bristle damping, s2 viscous; all integrated with LSODA):
 * ``dupont`` (Dupont et al. 2002) z' = v_r (1 - a(z, v_r) z/z_ss(v_r)), z_ss = sgn(v) g(v)/s0,
   z_ba = breakaway_ratio F_c/s0, a = 0 when sgn(v) != sgn(z); F = s0 z + s1 z' + s2 v_r;
 * ``lugre`` (Canudas de Wit et al. 1995) z' = v_r - |v_r| s0 z/g(v_r), F = s0 z + s1 z' + s2 v_r;
+* ``gms`` (Al-Bender et al. 2005) elements i = spring k_i + slide at w_i F_c: stuck, z_i' = v_r;
+  slipping (after k_i z_i reached +-w_i F_c), z_i = +-w_i F_c / k_i until v_r returns to 0;
+  F = sum k_i z_i + s2 v_r. A hybrid system (events: an element reaching its level, v_r = 0)
+  for constant levels only: no Stribeck, load modulation or ripple, where the element's
+  relaxation time has no effect;
 * ``coulomb`` rigid, a hybrid system with true stick: sliding, F = sgn(v_r) g(|v_r|) + s2 v_r;
   stuck, the slider rides with the support while |F_d - m u''| <= F_s. Integration restarts
   at each event (v_r = 0, stick force reaching +-F_s).
@@ -110,9 +115,13 @@ def simulate_reference(rig: RigParameters, friction: FrictionParameters, duratio
     if not (math.isfinite(vibration_from_s) and 0.0 <= vibration_from_s < duration_s):
         raise ParameterError(f"vibration_from_s={vibration_from_s!r} must lie in "
                              f"[0, duration_s={duration_s!r})")
-    if vibration_from_s > 0 and friction.law == "coulomb":
+    if vibration_from_s > 0 and friction.law in ("coulomb", "gms"):
         raise ParameterError("vibration_from_s is supported for the state laws (dahl, dupont, "
-                             "lugre), not for the rigid coulomb reference")
+                             f"lugre), not for the hybrid {friction.law} reference")
+    if friction.law == "gms" and (friction.static_ratio != 1 or friction.normal_force_modulation
+                                  or friction.position_ripple):
+        raise ParameterError("the gms reference covers constant levels: static_ratio 1, no "
+                             "normal_force_modulation, no position_ripple")
     n_intervals = max(1, round(duration_s / sample_dt_s))
     t_grid = np.linspace(0.0, duration_s, n_intervals + 1)
     contact = _Contact(rig, friction)
@@ -121,6 +130,8 @@ def simulate_reference(rig: RigParameters, friction: FrictionParameters, duratio
     max_step_s = _max_step_s(rig, friction)
     if friction.law == "coulomb":
         series = _simulate_coulomb(drive, contact, t_grid, tolerances, max_step_s)
+    elif friction.law == "gms":
+        series = _simulate_gms(drive, contact, friction, t_grid, tolerances, max_step_s)
     else:
         law: Law = getattr(contact, friction.law)
         series = _simulate_state_law(drive, law, t_grid, tolerances, max_step_s)
@@ -466,6 +477,106 @@ def _coulomb_series(drive: _Rig, contact: _Contact, t_grid: np.ndarray,
         else:
             friction_N[i] = contact.sliding_force(t, x[i] - u, xdot[i] - udot, mode)
     return _series(drive, t_grid, x, xdot, np.zeros_like(x), friction_N, modes == 0)
+
+
+# --------------------------------------------------------------------------------------------
+# gms with constant levels: hybrid system, each element stuck (0) or slipping (+1 / -1)
+
+
+def _simulate_gms(drive: _Rig, contact: _Contact, friction: FrictionParameters,
+                  t_grid: np.ndarray, tolerances, max_step_s: float) -> dict[str, np.ndarray]:
+    """Integrate between events (an element reaching its level, v_r = 0 while one slips)."""
+    k = np.array(friction.gms_stiffness_N_per_m)
+    n = len(k)
+    weights = np.array(friction.gms_weights or [1.0 / n] * n)
+    weights = weights / weights.sum()
+    # the slip deflections in either direction (asymmetry gives each direction its level)
+    limit = {s: weights * contact.coulomb_level(0.0, 0.0, s) / k for s in (1, -1)}
+    rtol, atol = tolerances
+    atol = np.concatenate([np.asarray(atol, dtype=float)[:2] if np.ndim(atol) else [atol] * 2,
+                           np.full(n, atol[2] if np.ndim(atol) else atol)])
+
+    def force(v: float, z: np.ndarray) -> float:
+        return float(k @ z) + contact.s2 * v + contact.offset_N
+
+    def relative_acceleration(t: float, y: np.ndarray) -> float:
+        _, udot, uddot = drive.support(t)
+        v = y[1] - udot
+        return (drive.drive_force(t, y[0], y[1]) - force(v, y[2:])) / drive.m - uddot
+
+    def segment(modes: np.ndarray):
+        stuck = modes == 0
+
+        def rhs(t: float, y: np.ndarray) -> np.ndarray:
+            _, udot, _ = drive.support(t)
+            v = y[1] - udot
+            out = np.empty_like(y)
+            out[0] = y[1]
+            out[1] = (drive.drive_force(t, y[0], y[1]) - force(v, y[2:])) / drive.m
+            out[2:] = np.where(stuck, v, 0.0)
+            return out
+
+        events, meaning = [], []
+        for i in np.flatnonzero(stuck):
+            for s in (1, -1):
+                # (a margin of 1e-9 of the level: an element stuck at its level after v_r = 0
+                # starts below its event, not on it within roundoff)
+                def reach(t, y, i=i, s=s):
+                    return s * y[2 + i] - limit[s][i] * (1 + 1e-9)
+                reach.terminal, reach.direction = True, 1
+                events.append(reach)
+                meaning.append((i, s))
+        if not stuck.all():
+            direction = int(modes[~stuck][0])
+
+            def stop(t, y):
+                return y[1] - drive.support(t)[1]
+            stop.terminal, stop.direction = True, -direction
+            events.append(stop)
+            meaning.append((-1, 0))
+        return rhs, events, meaning
+
+    t_end = t_grid[-1]
+    t, y, modes = 0.0, np.zeros(2 + n), np.zeros(n, dtype=int)
+    chunks: list[tuple[np.ndarray, np.ndarray]] = []
+    n_done, n_empty = 0, 0
+    while n_done < t_grid.size:
+        rhs, events, meaning = segment(modes)
+        sol = solve_ivp(rhs, (t, t_end), y, method=ODE_METHOD, t_eval=t_grid[n_done:],
+                        events=events or None, rtol=rtol, atol=atol, max_step=max_step_s)
+        if sol.status == -1:
+            raise RuntimeError(f"reference integration failed at t={t} s: {sol.message}")
+        if len(sol.t):
+            chunks.append((sol.t, sol.y))
+            n_done += len(sol.t)
+        if sol.status == 0:
+            break
+        fired = next(i for i, times in enumerate(sol.t_events) if times.size)
+        t_event, y = sol.t_events[fired][0], sol.y_events[fired][0].copy()
+        element, s = meaning[fired]
+        if element >= 0:  # reached its level: slips from here, held at it
+            modes[element] = s
+            y[2 + element] = s * limit[s][element]
+        else:  # v_r = 0: the slipping elements stick, unless the motion resumes their way
+            y[1] = drive.support(t_event)[1]
+            modes[:] = 0
+            resumes = np.sign(relative_acceleration(t_event, y))
+            if resumes:
+                at_level = np.isclose(resumes * y[2:], limit[int(resumes)], rtol=1e-9, atol=0)
+                modes[at_level] = int(resumes)
+        n_empty = n_empty + 1 if t_event <= t else 0
+        if n_empty > _MAX_EMPTY_SEGMENTS:
+            raise RuntimeError(f"gms stick/slip events do not advance at t={t} s")
+        t = t_event
+    x = np.concatenate([states[0] for _, states in chunks])
+    xdot = np.concatenate([states[1] for _, states in chunks])
+    z = np.concatenate([states[2:] for _, states in chunks], axis=1)
+    if x.size != t_grid.size:
+        raise RuntimeError("gms reference lost samples between segments")
+    v = xdot - drive.support_velocity(t_grid)
+    friction_N = k @ z + contact.s2 * v + contact.offset_N
+    return _series(drive, t_grid, x, xdot, k @ z / k.sum(), friction_N,
+                   np.zeros(x.shape, dtype=bool))
 
 
 # --------------------------------------------------------------------------------------------

@@ -20,6 +20,7 @@ from .params import (VIBRATION_RAMP_PERIODS, FrictionParameters, ParameterError,
                      _plain)
 from .summary import RunSummary, summarize
 from .vocabulary import MJCF_KEYS as VOCABULARY_MJCF_KEYS
+from .vocabulary import config_values
 
 if TYPE_CHECKING:
     from .steady import Convergence
@@ -37,15 +38,14 @@ def scene_path(law: str) -> Path:
     path = RIG_DIR / f"scene_{law}.xml"
     if not path.is_file():
         raise ParameterError(f"no rig scene for law {law!r} ({path}); use coulomb, dahl, "
-                             "dupont or lugre")
+                             "dupont, lugre or gms")
     return path
 
 
 def friction_config(rig: RigParameters, friction: FrictionParameters) -> dict[str, str]:
     """Config of the vibrofriction.friction instance for these parameters."""
-    config = {"law": friction.law, "normal": repr(float(rig.normal_force_N))}
-    for name, key in MJCF_KEYS.items():
-        config[key] = repr(float(getattr(friction, name)))
+    config = {"law": friction.law, "normal": repr(float(rig.normal_force_N)),
+              **config_values(friction, MJCF_KEYS)}
     if friction.normal_force_modulation_frequency_Hz == 0:
         # Normal-load modulation defaults to the support's vibration frequency.
         config["modulation_frequency"] = repr(float(rig.vibration_frequency_Hz))
@@ -85,6 +85,8 @@ def build_spec(rig: RigParameters, friction: FrictionParameters,
     set_plugin_config(spec, "drive_end_motion", {
         "velocity": repr(float(rig.drive_velocity_m_per_s))})
     set_plugin_config(spec, "friction", friction_config(rig, friction))
+    if friction.law == "gms":  # one deflection per element
+        spec.actuator("friction").actdim = len(friction.gms_stiffness_N_per_m)
     return spec
 
 

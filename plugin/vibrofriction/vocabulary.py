@@ -21,7 +21,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-ALL_LAWS = ("coulomb", "dahl", "dupont", "lugre")
+ALL_LAWS = ("coulomb", "dahl", "dupont", "lugre", "gms")
+# The laws the paper compares, which the study and identification run (gms, the generalized
+# Maxwell-slip law, is simulated by the 1D and planar elements; it is not a study law).
+PAPER_LAWS = ALL_LAWS[:4]
+GMS_ELEMENTS = ("friction", "planar")  # the elements that take law gms
+MAX_GMS_ELEMENTS = 16  # friction_law.h kMaxGmsElements
 # The elements whose config takes friction keys (vibrofriction.<name>) and the groups of them a
 # row names: every one; those with a velocity law of their own (the feeder's map holds its
 # velocity dependence); those that resolve the law in time (the averaged element's table holds
@@ -39,7 +44,7 @@ class Term:
     mjcf_key: str  # config key, the same in every element that takes it
     law_field: str | None  # LawParameters / vf_law_parameters field (None: not a law value)
     unit: str
-    default: float
+    default: float | tuple[float, ...]  # a tuple: a list of numbers, one per gms element
     # (smallest nonzero magnitude, largest), SI; None: a fraction whose range
     # ``FrictionParameters.validate`` checks itself
     limits: tuple[float, float] | None
@@ -47,6 +52,11 @@ class Term:
     elements: tuple[str, ...]  # the elements (ALL_ELEMENTS) whose config takes mjcf_key
     # the effect (a Term.name) whose form alone this term sets, idle while that effect is 0
     shapes: str | None = None
+
+    @property
+    def is_list(self) -> bool:
+        """A space-separated list in MJCF, a tuple in Python (the gms elements' values)."""
+        return isinstance(self.default, tuple)
 
 
 FRICTION_TERMS: tuple[Term, ...] = (
@@ -81,6 +91,13 @@ FRICTION_TERMS: tuple[Term, ...] = (
          "rad", 0.0, (0.0, 1e6), ALL_LAWS, RESOLVING_ELEMENTS, shapes="normal_force_modulation"),
     Term("force_offset_N", "force_offset", "force_offset", "N", 0.0, (0.0, 1e9), ALL_LAWS,
          LINE_ELEMENT_ONLY),
+    # law gms: one value per element (LawParameters::gms, not in the C API struct: the gms
+    # elements go to vf_run_gms_law as arrays)
+    Term("gms_stiffness_N_per_m", "gms_stiffness", None, "N/m", (), (0.0, 1e18), ("gms",),
+         GMS_ELEMENTS),
+    Term("gms_weights", "gms_weight", None, "-", (), None, ("gms",), GMS_ELEMENTS),
+    Term("gms_relaxation_time_s", "gms_relaxation_time", None, "s", 0.0, (0.0, 1e3), ("gms",),
+         GMS_ELEMENTS),
     # (the element's reporting, not the law: kept by the element, not in LawParameters)
     Term("sensor_lag_s", "sensor_lag", None, "s", 0.0, (0.0, 1e3), ALL_LAWS, LINE_ELEMENT_ONLY),
 )
@@ -97,6 +114,24 @@ def element_keys(element: str) -> dict[str, str]:
     return {term.name: term.mjcf_key for term in FRICTION_TERMS if element in term.elements}
 
 
+def config_values(friction, keys: dict[str, str]) -> dict[str, str]:
+    """MJCF config values (strings) of ``friction`` (a FrictionParameters) for ``keys`` (term name
+    -> MJCF key): a number as repr(float), a list space-separated. The gms element lists are
+    written only for law gms (they are empty otherwise)."""
+    config = {}
+    for name, key in keys.items():
+        term = TERMS_BY_NAME[name]
+        if term.laws == ("gms",) and friction.law != "gms":
+            continue
+        if term.is_list:
+            values = friction.gms_element_weights if name == "gms_weights" else \
+                getattr(friction, name)
+            config[key] = " ".join(repr(float(x)) for x in values)
+        else:
+            config[key] = repr(float(getattr(friction, name)))
+    return config
+
+
 # The C API struct's doubles after ``int law``, in c_api.h's order (the ABI: written out, so
 # that reordering the table cannot move them): the law values and the normal load (a rig's or
 # a sensor's, not a FrictionParameters value). tests/test_vocabulary.py checks both.
@@ -107,6 +142,6 @@ LAW_STRUCT_FIELDS = (
     "normal_modulation_phase", "force_offset")
 
 __all__ = ["Term", "FRICTION_TERMS", "TERMS_BY_NAME", "DEFAULTS", "MJCF_KEYS", "LIMITS",
-           "LAW_STRUCT_FIELDS", "ALL_LAWS", "ALL_ELEMENTS", "VELOCITY_LAW_ELEMENTS",
+           "LAW_STRUCT_FIELDS", "ALL_LAWS", "PAPER_LAWS", "GMS_ELEMENTS", "MAX_GMS_ELEMENTS", "ALL_ELEMENTS", "VELOCITY_LAW_ELEMENTS",
            "RESOLVING_ELEMENTS",
-           "LINE_ELEMENT_ONLY", "PAPER_CONTACT_STIFFNESS_N_PER_M", "element_keys"]
+           "LINE_ELEMENT_ONLY", "PAPER_CONTACT_STIFFNESS_N_PER_M", "element_keys", "config_values"]

@@ -25,7 +25,7 @@ def add_common_arguments(parser: argparse.ArgumentParser, *, law: bool = True,
                         help="override a parameter (repeatable), e.g. --set mass_kg=0.5")
     if law:
         parser.add_argument("--law", default="dahl",
-                            help="friction law: coulomb, dahl, dupont or lugre (default dahl)")
+                            help="friction law: coulomb, dahl, dupont, lugre or gms (default dahl)")
     if timestep:
         parser.add_argument("--timestep", type=float, default=None, metavar="S",
                             help="simulation timestep in seconds (default: N + 0.382 steps per "

@@ -1,7 +1,6 @@
 """report.json (docs/interfaces.md, exactly), report.md and the figures, written atomically."""
 from __future__ import annotations
 
-import dataclasses
 import math
 import os
 from pathlib import Path
@@ -27,7 +26,7 @@ def parameters(result: Identification, fit: FitResult) -> dict[str, float]:
     the rig's mass_kg, drive_damping_N_s_per_m and the normal_force_N used)."""
     record = result.train
     friction = fit.model.friction_parameters(fit.values, record.vibration_frequency_Hz)
-    out = {k: v for k, v in dataclasses.asdict(friction).items() if k != "law"}
+    out = friction.law_values()
     mass = fit.values.get("mass_kg", record.mass_kg)
     if mass is not None:
         out["mass_kg"] = float(mass)

@@ -28,7 +28,7 @@ def parameters(result: SimIdentification, fit: SimFit) -> dict[str, float | None
     """Every value of the fitted scene: friction attributes, the rig's values and a machine
     scene's fitted named values."""
     rig, friction = _case(result, fit)
-    out: dict[str, Any] = {k: v for k, v in dataclasses.asdict(friction).items() if k != "law"}
+    out: dict[str, Any] = friction.law_values()
     out.update({"mass_kg": rig.mass_kg, "drive_damping_N_s_per_m": rig.drive_damping_N_s_per_m,
                 "normal_force_N": rig.normal_force_N})
     out.update({n: fit.values[n] for n in fit.model.scene})
