@@ -248,9 +248,18 @@ def test_the_plugin_range_of_an_attribute_equals_its_python_limit(name):
 
     def compile_with(value: float) -> str | None:
         spec = _spec(law)
-        text = " ".join([repr(float(value))] * elements) if TERMS_BY_NAME.get(name) and \
-            TERMS_BY_NAME[name].is_list else repr(float(value))
-        _set_config(spec, instance, {key: text})
+        term = TERMS_BY_NAME.get(name)
+        config = {key: repr(float(value))}
+        if term is not None and term.laws == ("gms",) and term.is_list:
+            config[key] = " ".join([repr(float(value))] * elements)
+        elif term is not None and "map" in name:  # a map: knots and factors together
+            prefix = name.split("_map")[0] + "_map"
+            if name.endswith("_factors"):
+                config = {f"{prefix}_knots": "0 1 2", key: " ".join([repr(float(value))] * 3)}
+            elif term.is_list:  # increasing knots up to the value
+                config = {key: " ".join(repr(float(value) * f) for f in (0.25, 0.5, 1.0)),
+                          f"{prefix}_factors": "0 0 0"}
+        _set_config(spec, instance, config)
         try:
             spec.compile()
         except ValueError as error:

@@ -15,7 +15,7 @@ from vibrofriction import averaged, planar, rig
 from vibrofriction._native import _LawParameters
 from vibrofriction.params import LAWS, LIMITS, FrictionParameters
 from vibrofriction.vocabulary import (ALL_ELEMENTS, ALL_LAWS, FRICTION_TERMS, LAW_STRUCT_FIELDS,
-                                      MAX_GMS_ELEMENTS, PAPER_LAWS, TERMS_BY_NAME, element_keys)
+                                      MAX_GMS_ELEMENTS, MAX_MAP_KNOTS, PAPER_LAWS, TERMS_BY_NAME, element_keys)
 
 ROOT = Path(__file__).resolve().parents[1]
 CPP = ROOT / "plugin" / "cpp"
@@ -119,6 +119,10 @@ def test_the_cpp_law_parameters_have_the_tables_defaults() -> None:
     struct = re.search(r"struct LawParameters \{(.*?)\};", header, re.S).group(1)
     struct = re.sub(r"//[^\n]*", "", struct)
     declared = re.findall(r"\b(\w+) (\w+) = ([^;]+);", struct)
+    # the lists (gms elements, level maps) are members of their own structs, checked below
+    declared = [d for d in declared if d[0] != "LevelMap"]
+    assert re.findall(r"\bLevelMap (\w+)", struct) == ["position_map", "velocity_map"]
+    assert re.findall(r"\bGmsElements (\w+);", struct) == ["gms"]
     assert declared[0][:2] == ("Law", "law")
     defaults = {name: _number(value) for kind, name, value in declared[1:]
                 if kind == "double"}
@@ -137,10 +141,19 @@ def test_the_cpp_law_parameters_have_the_tables_defaults() -> None:
     assert int(re.search(r"kMaxGmsElements = (\d+);", header).group(1)) == MAX_GMS_ELEMENTS
     lists = re.findall(r"double (\w+)\[kMaxGmsElements\] = \{\};", gms)
     assert lists == ["stiffness", "weight"]
-    assert [t.name for t in FRICTION_TERMS if t.is_list] == ["gms_stiffness_N_per_m",
-                                                              "gms_weights"]
+    assert [t.name for t in FRICTION_TERMS if t.is_list and t.laws == ("gms",)] == [
+        "gms_stiffness_N_per_m", "gms_weights"]
     relaxation = re.search(r"double relaxation_time = ([^;]+);", gms).group(1)
     assert _number(relaxation) == TERMS_BY_NAME["gms_relaxation_time_s"].default
+    level_map = re.search(r"struct LevelMap \{(.*?)\n\};", header, re.S).group(1)
+    assert int(re.search(r"kMaxMapKnots = (\d+);", header).group(1)) == MAX_MAP_KNOTS
+    assert re.findall(r"double (\w+)\[kMaxMapKnots\] = \{\};", level_map) == [
+        "knot", "factor", "curvature"]
+    assert [t.name for t in FRICTION_TERMS if t.is_list and "map" in t.name] == [
+        "position_map_knots_m", "position_map_factors", "velocity_map_knots_m_per_s",
+        "velocity_map_factors"]
+    assert _number(re.search(r"double period = ([^;]+);", level_map).group(1)) == \
+        TERMS_BY_NAME["position_map_period_m"].default
 
 
 def test_the_config_readers_read_each_key_into_its_field_with_the_tables_default() -> None:
@@ -154,7 +167,13 @@ def test_the_config_readers_read_each_key_into_its_field_with_the_tables_default
         r"ReadNumber\(m, instance, plugin, (k\w+), ([-+0-9.eE]+), &\w+\.(\w+)\)", sources)})
     # a list (law gms's elements) is read whole; its default is empty
     read.update({constants[key]: (None, ()) for key in re.findall(
-        r"ReadNumberList\(m, instance, plugin, (k\w+),", sources)})
+        r"ReadNumberList\(m, instance, plugin, (k[A-Z]\w+),", sources)})
+    # a level map: ReadLevelMap(..., knots key, factors key, period key or nullptr, ...)
+    for knots, factors, period in re.findall(
+            r"ReadLevelMap\(m, instance, kPlugin, (k\w+), (k\w+),\s*(k\w+|nullptr),", sources):
+        read.update({constants[knots]: (None, ()), constants[factors]: (None, ())})
+        if period != "nullptr":
+            read[constants[period]] = (None, 0.0)
     for term in FRICTION_TERMS:
         assert term.mjcf_key in read, f"{term.mjcf_key} is not read by the friction element"
         field, default = read[term.mjcf_key]

@@ -31,19 +31,106 @@ LawParameters LawFromStruct(const vf_law_parameters& c) {
   return p;
 }
 
+namespace {
+
+// A map from the C lists, checked as the config reader checks it (element_config.cc).
+bool SetMap(int count, const double* knots, const double* factors, double period,
+            bool nonnegative_knots, LevelMap* map) {
+  if (count < 0 || count > kMaxMapKnots || (count > 0 && (!knots || !factors))) return false;
+  if (!(period >= 0)) return false;
+  map->count = count;
+  map->period = period;
+  for (int i = 0; i < count; ++i) {
+    if (!(factors[i] > -1) || !std::isfinite(knots[i]) || !std::isfinite(factors[i])) {
+      return false;
+    }
+    if (nonnegative_knots && knots[i] < 0) return false;
+    map->knot[i] = knots[i];
+    map->factor[i] = factors[i];
+  }
+  return map->SetUp();
+}
+
+}  // namespace
+
+bool SetLawLists(const vf_law_lists* lists, LawParameters* p) {
+  if (!lists) return true;
+  const int count = lists->gms_count;
+  if (count < 0 || count > kMaxGmsElements) return false;
+  if (count > 0) {
+    if (!lists->gms_stiffness || !lists->gms_weight || !(lists->gms_relaxation_time >= 0)) {
+      return false;
+    }
+    double total = 0.0;
+    for (int i = 0; i < count; ++i) {
+      if (!(lists->gms_stiffness[i] > 0) || !(lists->gms_weight[i] > 0)) return false;
+      p->gms.stiffness[i] = lists->gms_stiffness[i];
+      p->gms.weight[i] = lists->gms_weight[i];
+      total += lists->gms_weight[i];
+    }
+    if (!(std::fabs(total - 1.0) <= 1e-6)) return false;
+    p->gms.count = count;
+    p->gms.relaxation_time = lists->gms_relaxation_time;
+  }
+  return SetMap(lists->position_map_count, lists->position_map_knots,
+                lists->position_map_factors, lists->position_map_period, false,
+                &p->position_map) &&
+         SetMap(lists->velocity_map_count, lists->velocity_map_knots,
+                lists->velocity_map_factors, 0.0, true, &p->velocity_map);
+}
+
 }  // namespace vibrofriction
 
 namespace {
 
-vibrofriction::LawInput InputAt(const vibrofriction::LawParameters& p, int i, const double* time,
-                                const double* velocity, const double* position,
-                                const double* normal_force) {
-  vibrofriction::LawInput in;
+using vibrofriction::LawInput;
+using vibrofriction::LawParameters;
+
+LawInput InputAt(const LawParameters& p, int i, const double* time, const double* velocity,
+                 const double* position, const double* normal_force) {
+  LawInput in;
   in.velocity = velocity[i];
   in.time = time[i];
   in.position = position ? position[i] : 0.0;
   in.normal_force = normal_force ? normal_force[i] : p.normal_force;
   return in;
+}
+
+// The one-state laws (and Coulomb) along the samples: the plugin's step order.
+void RunOneState(const LawParameters& p, int n, const double* time, const double* velocity,
+                 const double* position, const double* normal_force, double z0,
+                 double* force_out, double* deflection_out) {
+  double z = vibrofriction::HasDeflection(p.law) ? z0 : 0.0;
+  for (int i = 0; i < n; ++i) {
+    const LawInput in = InputAt(p, i, time, velocity, position, normal_force);
+    deflection_out[i] = z;
+    force_out[i] = vibrofriction::HasDeflection(p.law)
+                       ? vibrofriction::StateForce(p, in, z)
+                       : vibrofriction::KinematicCoulombForce(p, in);
+    if (i + 1 < n) {
+      const LawInput next = InputAt(p, i + 1, time, velocity, position, normal_force);
+      z = vibrofriction::AdvanceDeflection(p, next, z, time[i + 1] - time[i]);
+    }
+  }
+}
+
+// Law gms along the samples: deflection_out holds every element's, sample-major.
+void RunGms(const LawParameters& p, int n, const double* time, const double* velocity,
+            const double* position, const double* normal_force, const double* z0,
+            double* force_out, double* deflection_out) {
+  const int count = p.gms.count;
+  double z[vibrofriction::kMaxGmsElements] = {}, slipping[vibrofriction::kMaxGmsElements] = {};
+  for (int i = 0; i < count; ++i) z[i] = z0 ? z0[i] : 0.0;
+  for (int i = 0; i < n; ++i) {
+    for (int e = 0; e < count; ++e) deflection_out[i * count + e] = z[e];
+    double elements = 0.0;
+    vibrofriction::GmsElementForce<1>(p, z, &elements);
+    force_out[i] = elements + p.viscous * velocity[i] + p.force_offset;
+    if (i + 1 < n) {
+      const LawInput next = InputAt(p, i + 1, time, velocity, position, normal_force);
+      vibrofriction::AdvanceGms<1>(p, next, &next.velocity, z, slipping, time[i + 1] - time[i]);
+    }
+  }
 }
 
 }  // namespace
@@ -58,55 +145,26 @@ int vf_run_law(const vf_law_parameters* params, int n, const double* time,
                const double* velocity, const double* position, const double* normal_force,
                double z0, double* force_out, double* deflection_out) {
   if (!params || n < 0 || !time || !velocity || !force_out || !deflection_out) return -1;
-  if (params->law < 0 || params->law > 3) return -1;
-  const vibrofriction::LawParameters p = vibrofriction::LawFromStruct(*params);
-  double z = vibrofriction::HasDeflection(p.law) ? z0 : 0.0;
-  for (int i = 0; i < n; ++i) {
-    const vibrofriction::LawInput in = InputAt(p, i, time, velocity, position, normal_force);
-    deflection_out[i] = z;
-    force_out[i] = vibrofriction::HasDeflection(p.law)
-                       ? vibrofriction::StateForce(p, in, z)
-                       : vibrofriction::KinematicCoulombForce(p, in);
-    if (i + 1 < n) {
-      const vibrofriction::LawInput next = InputAt(p, i + 1, time, velocity, position, normal_force);
-      z = vibrofriction::AdvanceDeflection(p, next, z, time[i + 1] - time[i]);
-    }
-  }
+  if (params->law < 0 || params->law > 3) return -1;  // (gms: vf_run_law_with_lists)
+  RunOneState(vibrofriction::LawFromStruct(*params), n, time, velocity, position, normal_force,
+              z0, force_out, deflection_out);
   return 0;
 }
 
-int vf_run_gms_law(const vf_law_parameters* params, int count, const double* stiffness,
-                   const double* weight, double relaxation_time, int n, const double* time,
-                   const double* velocity, const double* position, const double* normal_force,
-                   const double* z0, double* force_out, double* deflection_out) {
-  using vibrofriction::kMaxGmsElements;
-  if (!params || params->law != 4 || count < 1 || count > kMaxGmsElements || !stiffness ||
-      !weight || !(relaxation_time >= 0) || n < 0 || !time || !velocity || !force_out ||
-      !deflection_out) {
-    return -1;
-  }
-  vibrofriction::LawParameters p = vibrofriction::LawFromStruct(*params);
-  p.gms.count = count;
-  double total = 0.0;
-  for (int i = 0; i < count; ++i) {
-    if (!(stiffness[i] > 0) || !(weight[i] > 0)) return -1;
-    p.gms.stiffness[i] = stiffness[i];
-    p.gms.weight[i] = weight[i];
-    total += weight[i];
-  }
-  if (!(std::fabs(total - 1.0) <= 1e-6)) return -1;
-  p.gms.relaxation_time = relaxation_time;
-  double z[kMaxGmsElements] = {}, slipping[kMaxGmsElements] = {};
-  for (int i = 0; i < count; ++i) z[i] = z0 ? z0[i] : 0.0;
-  for (int i = 0; i < n; ++i) {
-    for (int e = 0; e < count; ++e) deflection_out[i * count + e] = z[e];
-    double elements = 0.0;
-    vibrofriction::GmsElementForce<1>(p, z, &elements);
-    force_out[i] = elements + p.viscous * velocity[i] + p.force_offset;
-    if (i + 1 < n) {
-      const vibrofriction::LawInput next = InputAt(p, i + 1, time, velocity, position, normal_force);
-      vibrofriction::AdvanceGms<1>(p, next, &next.velocity, z, slipping, time[i + 1] - time[i]);
-    }
+int vf_run_law_with_lists(const vf_law_parameters* params, const vf_law_lists* lists, int n,
+                          const double* time, const double* velocity, const double* position,
+                          const double* normal_force, const double* z0, double* force_out,
+                          double* deflection_out) {
+  if (!params || n < 0 || !time || !velocity || !force_out || !deflection_out) return -1;
+  if (params->law < 0 || params->law > 4) return -1;
+  LawParameters p = vibrofriction::LawFromStruct(*params);
+  if (!vibrofriction::SetLawLists(lists, &p)) return -1;
+  if ((p.law == vibrofriction::Law::kGms) != (p.gms.count > 0)) return -1;
+  if (p.law == vibrofriction::Law::kGms) {
+    RunGms(p, n, time, velocity, position, normal_force, z0, force_out, deflection_out);
+  } else {
+    RunOneState(p, n, time, velocity, position, normal_force, z0 ? z0[0] : 0.0, force_out,
+                deflection_out);
   }
   return 0;
 }

@@ -35,16 +35,30 @@ VF_EXPORT int vf_run_law(const vf_law_parameters* params, int n, const double* t
                const double* velocity, const double* position, const double* normal_force,
                double z0, double* force_out, double* deflection_out);
 
-// Law gms (params->law 4) along samples as vf_run_law, with its `count` elements (1 to 16):
-// stiffness[count] (N/m, > 0), weight[count] (> 0, summing to 1) and the relaxation time (s,
-// >= 0). z0[count] are the initial deflections (NULL: 0), all elements start stuck. Writes
-// force_out[n] (N) and deflection_out[n * count] (m, sample-major). Returns 0, or -1 on bad
-// arguments.
-VF_EXPORT int vf_run_gms_law(const vf_law_parameters* params, int count, const double* stiffness,
-                             const double* weight, double relaxation_time, int n,
-                             const double* time, const double* velocity, const double* position,
-                             const double* normal_force, const double* z0, double* force_out,
-                             double* deflection_out);
+// The list-valued parameters (NULL pointers with count 0: off): law gms's elements, and the
+// level maps over the relative position and the speed (friction_law.h, LevelMap).
+typedef struct vf_law_lists {
+  int gms_count;  // 1 to 16 for law gms (params->law 4), else 0
+  const double* gms_stiffness;  // [gms_count] N/m, > 0
+  const double* gms_weight;     // [gms_count] > 0, summing to 1
+  double gms_relaxation_time;   // s, >= 0
+  int position_map_count;       // 0 to 16
+  const double* position_map_knots;    // m, increasing
+  const double* position_map_factors;  // > -1
+  double position_map_period;          // m, 0: not periodic
+  int velocity_map_count;       // 0 to 16
+  const double* velocity_map_knots;    // m/s, >= 0, increasing
+  const double* velocity_map_factors;  // > -1
+} vf_law_lists;
+
+// vf_run_law with the list-valued parameters (`lists` may be NULL: none). z0 holds one
+// deflection per gms element (gms) or one (the other laws); NULL: 0; gms elements start stuck.
+// deflection_out holds n * max(1, gms_count) values, sample-major. Returns 0, or -1 on bad
+// arguments (a bad list included).
+VF_EXPORT int vf_run_law_with_lists(const vf_law_parameters* params, const vf_law_lists* lists,
+                                    int n, const double* time, const double* velocity,
+                                    const double* position, const double* normal_force,
+                                    const double* z0, double* force_out, double* deflection_out);
 
 // The planar law (plugin/cpp/planar_friction.cc) along a prescribed velocity history, same step
 // order as vf_run_law. Coulomb is kinematic (no stick solve). Effects other than the normal-load
@@ -62,6 +76,8 @@ namespace vibrofriction {
 struct LawParameters;
 // The law's parameters from the C struct: every field (one copy, c_api.cc).
 LawParameters LawFromStruct(const vf_law_parameters& c);
+// Sets the list-valued parameters from `lists` (NULL: none); false when a list is invalid.
+bool SetLawLists(const vf_law_lists* lists, LawParameters* p);
 }  // namespace vibrofriction
 #endif
 

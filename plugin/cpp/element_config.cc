@@ -64,6 +64,50 @@ static bool ReadGmsElements(const mjModel* m, int instance, const char* plugin, 
   return true;
 }
 
+bool ReadLevelMap(const mjModel* m, int instance, const char* plugin, const char* knots_key,
+                  const char* factors_key, const char* period_key, bool nonnegative_knots,
+                  LevelMap* out) {
+  std::vector<double> knots, factors;
+  if (!ReadNumberList(m, instance, plugin, knots_key, &knots) ||
+      !ReadNumberList(m, instance, plugin, factors_key, &factors)) {
+    return false;
+  }
+  LevelMap map = *out;
+  map.count = 0;
+  if (period_key && !ReadNumber(m, instance, plugin, period_key, 0.0, &map.period)) return false;
+  if (knots.size() != factors.size()) {
+    return ConfigError("%s: '%s' has %d values and '%s' %d; give one factor per knot", plugin,
+                       knots_key, static_cast<int>(knots.size()), factors_key,
+                       static_cast<int>(factors.size()));
+  }
+  if (knots.size() > static_cast<size_t>(kMaxMapKnots)) {
+    return ConfigError("%s: '%s' has %d knots; a map takes at most %d", plugin, knots_key,
+                       static_cast<int>(knots.size()), kMaxMapKnots);
+  }
+  if (period_key && map.period < 0) {
+    return RejectAttribute(plugin, period_key, map.period, "must be >= 0 (0: not periodic)");
+  }
+  map.count = static_cast<int>(knots.size());
+  for (int i = 0; i < map.count; ++i) {
+    map.knot[i] = knots[i];
+    map.factor[i] = factors[i];
+    if (!(factors[i] > -1)) {
+      return RejectAttribute(plugin, factors_key, factors[i], "has a factor <= -1; each must be "
+                             "> -1 (the level times 1 + factor stays positive)");
+    }
+    if (nonnegative_knots && knots[i] < 0) {
+      return RejectAttribute(plugin, knots_key, knots[i], "has a knot < 0; the knots are speeds "
+                             "|v| >= 0");
+    }
+  }
+  if (!map.SetUp()) {
+    return ConfigError("%s: the knots of '%s' must increase%s", plugin, knots_key,
+                       map.period > 0 ? " and lie within one period" : "");
+  }
+  *out = map;
+  return true;
+}
+
 int GmsElementCount(const mjModel* m, int instance) {
   const char* law_name = mj_getPluginConfig(m, instance, kLaw);
   Law law;

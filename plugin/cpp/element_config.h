@@ -34,6 +34,12 @@ inline constexpr char kModulationPhase[] = "modulation_phase";
 inline constexpr char kGmsStiffness[] = "gms_stiffness";
 inline constexpr char kGmsWeight[] = "gms_weight";
 inline constexpr char kGmsRelaxationTime[] = "gms_relaxation_time";
+// level maps (vibrofriction.friction)
+inline constexpr char kPositionMapKnots[] = "position_map_knots";
+inline constexpr char kPositionMapFactors[] = "position_map_factors";
+inline constexpr char kPositionMapPeriod[] = "position_map_period";
+inline constexpr char kVelocityMapKnots[] = "velocity_map_knots";
+inline constexpr char kVelocityMapFactors[] = "velocity_map_factors";
 // the averaged elements' vibration and table (vibrofriction.averaged, .contact_averaged)
 inline constexpr char kVelocityAmplitude[] = "velocity_amplitude";
 inline constexpr char kTableXi[] = "table_xi";
@@ -53,6 +59,14 @@ bool RejectAttribute(const char* plugin, const char* attr, double value, const c
 // returns false. Leaves the other fields of *p as they are.
 bool ReadLawParameters(const mjModel* m, int instance, const char* plugin, LawParameters* p,
                        bool takes_gms = false);
+
+// Reads a level map: the knots and factors lists (both or neither, at most kMaxMapKnots, knots
+// increasing, factors > -1) and, with a period key, the period (>= 0; > 0: periodic, the knots
+// within one period); nonnegative_knots for a map over the speed. Records the error naming the
+// attribute and returns false on a bad value.
+bool ReadLevelMap(const mjModel* m, int instance, const char* plugin, const char* knots_key,
+                  const char* factors_key, const char* period_key, bool nonnegative_knots,
+                  LevelMap* out);
 
 // The number of gms elements the config declares (the count of gms_stiffness values; 0 for
 // another law or a bad list): the element's state size, known before the model is complete.

@@ -27,7 +27,8 @@ const char* const kAttributes[] = {
     kContactGeom2, kStiffness, kAlpha, kBreakaway, kSigma1, kViscous, kStaticRatio,
     kStribeckVelocity, kAsymmetry, kRipple, kRippleWavelength, kRipplePhase, kNormalModulation,
     kModulationFrequency, kModulationPhase, kForceOffset, kSensorLag, kGmsStiffness, kGmsWeight,
-    kGmsRelaxationTime};
+    kGmsRelaxationTime, kPositionMapKnots, kPositionMapFactors, kPositionMapPeriod,
+    kVelocityMapKnots, kVelocityMapFactors};
 
 constexpr char kPlugin[] = "vibrofriction.friction";
 
@@ -131,6 +132,12 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
     if (!ReadNumber(m, instance, kPlugin, spec.attr, spec.default_value, spec.target)) {
       return false;
     }
+  }
+  if (!ReadLevelMap(m, instance, kPlugin, kPositionMapKnots, kPositionMapFactors,
+                    kPositionMapPeriod, /*nonnegative_knots=*/false, &p.position_map) ||
+      !ReadLevelMap(m, instance, kPlugin, kVelocityMapKnots, kVelocityMapFactors, nullptr,
+                    /*nonnegative_knots=*/true, &p.velocity_map)) {
+    return false;
   }
   if (!(p.asymmetry > -1 && p.asymmetry < 1)) {
     return RejectAttribute(kPlugin, kAsymmetry, p.asymmetry, "must lie in (-1, 1)");

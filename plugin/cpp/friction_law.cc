@@ -237,14 +237,10 @@ double StickSlipForce(const LawParameters& p, const LawInput& in, double stick_f
   const double direction = Sign(needed);
   LawInput at_rest = in;
   at_rest.velocity = 0.0;
-  const double static_level = p.static_ratio * CoulombLevel(p, at_rest, direction);
+  const double static_level = CoulombLevel(p, at_rest, direction) * VelocityShape(p, 0.0);
   if (std::fabs(needed) <= static_level) return stick_force;
   // Kinetic level in the direction of sliding, with the Stribeck curve at the current speed.
-  double kinetic = CoulombLevel(p, in, direction);
-  if (p.static_ratio != 1.0) {
-    const double ratio = in.velocity / p.stribeck_velocity;
-    kinetic *= 1.0 + (p.static_ratio - 1.0) * std::exp(-ratio * ratio);
-  }
+  const double kinetic = CoulombLevel(p, in, direction) * VelocityShape(p, in.velocity);
   return direction * kinetic + p.viscous * in.velocity + p.force_offset;
 }
 
@@ -673,6 +669,102 @@ void PlanarKinematicCoulombForce(const LawParameters& p, const LawInput& in, con
   const double level = speed > 0 ? StribeckLevel(p, AtSpeed(in, speed)) : 0.0;
   force[0] = level * dir[0] + p.viscous * v[0];
   force[1] = level * dir[1] + p.viscous * v[1];
+}
+
+// ---- Level maps ------------------------------------------------------------------------------
+
+bool LevelMap::SetUp() {
+  const int n = count;
+  for (int i = 0; i < kMaxMapKnots; ++i) curvature[i] = 0.0;
+  if (n < 1 || n > kMaxMapKnots) return n == 0;
+  for (int i = 1; i < n; ++i) {
+    if (!(knot[i] > knot[i - 1])) return false;
+  }
+  if (period > 0 && !(knot[n - 1] < knot[0] + period)) return false;
+  if (n < 3 && period <= 0) return true;  // a constant or a line: no curvature
+  if (n < 2) return true;
+  // Continuity of the slope at each interior knot (every knot, periodic): a linear system in
+  // the curvatures, at most 16 unknowns, solved once when the config is read.
+  double A[kMaxMapKnots * kMaxMapKnots] = {}, b[kMaxMapKnots] = {}, m[kMaxMapKnots] = {};
+  auto x = [&](int i) { return i < n ? knot[i] : knot[i - n] + period; };
+  auto y = [&](int i) { return factor[i % n]; };
+  if (period > 0) {
+    for (int i = 0; i < n; ++i) {
+      const int prev = (i + n - 1) % n, next = (i + 1) % n;
+      const double h0 = i == 0 ? knot[0] + period - knot[n - 1] : knot[i] - knot[i - 1];
+      const double h1 = x(i + 1) - knot[i];
+      A[n * i + prev] += h0 / 6;
+      A[n * i + i] += (h0 + h1) / 3;
+      A[n * i + next] += h1 / 6;
+      b[i] = (y(i + 1) - factor[i]) / h1 - (factor[i] - factor[prev]) / h0;
+    }
+  } else {
+    A[0] = 1.0;
+    A[n * (n - 1) + n - 1] = 1.0;  // natural ends: zero curvature
+    for (int i = 1; i + 1 < n; ++i) {
+      const double h0 = knot[i] - knot[i - 1], h1 = knot[i + 1] - knot[i];
+      A[n * i + i - 1] = h0 / 6;
+      A[n * i + i] = (h0 + h1) / 3;
+      A[n * i + i + 1] = h1 / 6;
+      b[i] = (factor[i + 1] - factor[i]) / h1 - (factor[i] - factor[i - 1]) / h0;
+    }
+  }
+  // (Gaussian elimination with partial pivoting, n <= 16)
+  for (int col = 0; col < n; ++col) {
+    int pivot = col;
+    for (int r = col + 1; r < n; ++r) {
+      if (std::fabs(A[n * r + col]) > std::fabs(A[n * pivot + col])) pivot = r;
+    }
+    if (!(std::fabs(A[n * pivot + col]) > 0)) return false;
+    if (pivot != col) {
+      for (int j = 0; j < n; ++j) std::swap(A[n * pivot + j], A[n * col + j]);
+      std::swap(b[pivot], b[col]);
+    }
+    for (int r = col + 1; r < n; ++r) {
+      const double f = A[n * r + col] / A[n * col + col];
+      for (int j = col; j < n; ++j) A[n * r + j] -= f * A[n * col + j];
+      b[r] -= f * b[col];
+    }
+  }
+  for (int i = n - 1; i >= 0; --i) {
+    double sum = b[i];
+    for (int j = i + 1; j < n; ++j) sum -= A[n * i + j] * m[j];
+    m[i] = sum / A[n * i + i];
+  }
+  for (int i = 0; i < n; ++i) curvature[i] = m[i];
+  return true;
+}
+
+double LevelMap::Value(double at) const {
+  const int n = count;
+  if (n == 0) return 0.0;
+  if (n == 1) return factor[0];
+  double xq = at;
+  int i;  // interval [x_i, x_i+1]; periodic: i = n - 1 wraps to knot 0 + period
+  if (period > 0) {
+    xq = knot[0] + std::fmod(at - knot[0], period);
+    if (xq < knot[0]) xq += period;
+    i = static_cast<int>(std::upper_bound(knot, knot + n, xq) - knot) - 1;
+  } else {
+    if (xq <= knot[0] || xq >= knot[n - 1]) {
+      const bool low = xq <= knot[0];
+      const int end = low ? 0 : n - 1;
+      if (constant_ends) return factor[end];
+      // the natural spline's end slope (its end curvature is 0), continued linearly
+      const int a = low ? 0 : n - 2;  // the end interval [knot a, knot a + 1]
+      const double h = knot[a + 1] - knot[a];
+      const double chord = (factor[a + 1] - factor[a]) / h;
+      const double slope = low ? chord - h * curvature[1] / 6 : chord + h * curvature[n - 2] / 6;
+      return factor[end] + slope * (xq - knot[end]);
+    }
+    i = static_cast<int>(std::upper_bound(knot, knot + n, xq) - knot) - 1;
+  }
+  const int j = (i + 1) % n;
+  const double x1 = i + 1 < n ? knot[i + 1] : knot[0] + period;
+  const double h = x1 - knot[i];
+  const double a = (x1 - xq) / h, b = (xq - knot[i]) / h;
+  return a * factor[i] + b * factor[j] +
+         ((a * a * a - a) * curvature[i] + (b * b * b - b) * curvature[j]) * h * h / 6;
 }
 
 // ---- Generalized Maxwell-slip ----------------------------------------------------------------

@@ -39,6 +39,33 @@ struct GmsElements {
   double relaxation_time = 0.0;            // tau (s) of a slipping element's force
 };
 
+// A friction level that varies smoothly along a coordinate (the relative position: a
+// position_map; the sliding speed |v|: a velocity_map): the level is multiplied by
+// max(0, 1 + s(x)), s the cubic spline through (knot_i, factor_i) -- natural (zero curvature at
+// the ends), or periodic when period > 0. Beyond the knots s stays at its end value
+// (constant_ends, a position) or goes on along its end slope (a speed: the map generalises a
+// viscous term). count 0: off.
+inline constexpr int kMaxMapKnots = 16;
+struct LevelMap {
+  int count = 0;
+  double knot[kMaxMapKnots] = {};       // increasing; periodic: within one period
+  double factor[kMaxMapKnots] = {};     // relative change of the level at the knot (-)
+  double curvature[kMaxMapKnots] = {};  // the spline's second derivatives (SetUp)
+  double period = 0.0;                  // > 0: periodic (m)
+  bool constant_ends = true;
+
+  // Computes the curvatures; false when the knots do not increase (or, periodic, do not fit
+  // within one period).
+  bool SetUp();
+  double Value(double x) const;  // s(x)
+  double Factor(double x) const { return count ? std::max(0.0, 1.0 + Value(x)) : 1.0; }
+  static LevelMap WithLinearEnds() {
+    LevelMap map;
+    map.constant_ends = false;
+    return map;
+  }
+};
+
 // Parameters of one friction element; names follow the Python FrictionParameters.
 struct LawParameters {
   Law law = Law::kDahl;
@@ -61,6 +88,8 @@ struct LawParameters {
   double normal_modulation_phase = 0.0;      // phi_m (rad)
   double force_offset = 0.0;                 // constant added to F (N)
   GmsElements gms;                           // law gms only
+  LevelMap position_map;                     // level x factor along the relative position
+  LevelMap velocity_map = LevelMap::WithLinearEnds();  // level x factor over the speed |v|
 };
 
 // What the law sees at one instant besides its state.
@@ -99,15 +128,28 @@ inline double CoulombLevel(const LawParameters& p, const LawInput& in, double di
   if (p.ripple != 0) {
     level *= 1.0 + p.ripple * std::sin(2 * kPi * in.position / p.ripple_wavelength + p.ripple_phase);
   }
+  if (p.position_map.count) level *= p.position_map.Factor(in.position);
   return level;
 }
 
-// Stribeck curve g (N) at the input's velocity: F_c + (F_s - F_c) exp(-(v/v_s)^2).
+// The level's dependence on the sliding velocity v, g(v) / F_c: the Stribeck curve
+// 1 + (F_s/F_c - 1) exp(-(v/v_s)^2) times the velocity map's factor at |v|.
+inline double VelocityShape(const LawParameters& p, double velocity) {
+  double shape = 1.0;
+  if (p.static_ratio != 1.0) {
+    const double ratio = velocity / p.stribeck_velocity;
+    shape = 1.0 + (p.static_ratio - 1.0) * std::exp(-ratio * ratio);
+  }
+  if (p.velocity_map.count) shape *= p.velocity_map.Factor(std::fabs(velocity));
+  return shape;
+}
+
+// Stribeck curve g (N) at the input's velocity: F_c + (F_s - F_c) exp(-(v/v_s)^2) (x the
+// velocity map).
 inline double StribeckLevel(const LawParameters& p, const LawInput& in) {
   const double coulomb = CoulombLevel(p, in, (in.velocity > 0) - (in.velocity < 0));
-  if (p.static_ratio == 1.0) return coulomb;
-  const double ratio = in.velocity / p.stribeck_velocity;
-  return coulomb * (1.0 + (p.static_ratio - 1.0) * std::exp(-ratio * ratio));
+  if (p.static_ratio == 1.0 && !p.velocity_map.count) return coulomb;
+  return coulomb * VelocityShape(p, in.velocity);
 }
 
 // k_t z + sigma2 v + offset (N): the state force without bristle damping, which needs no level.

@@ -44,6 +44,11 @@ constexpr NamedRange kRanges[] = {
     {"sensor_lag", {0.0, 1e3}},             // sensor_lag_s
     {"gms_stiffness", {0.0, 1e18}},         // gms_stiffness_N_per_m (each value)
     {"gms_relaxation_time", {0.0, 1e3}},    // gms_relaxation_time_s
+    {"position_map_knots", {0.0, 1e6}},     // position_map_knots_m (each value)
+    {"position_map_factors", {0.0, 1e3}},   // position_map_factors
+    {"position_map_period", {0.0, 1e6}},    // position_map_period_m
+    {"velocity_map_knots", {0.0, 1e3}},     // velocity_map_knots_m_per_s
+    {"velocity_map_factors", {0.0, 1e3}},   // velocity_map_factors
     {"axis_angle", {0.0, 1e6}},             // rad
     // vibrofriction.motion and the averaged element (params.RigParameters)
     {"frequency", {0.0, 1e7}},              // vibration_frequency_Hz

@@ -38,6 +38,19 @@ class _LawParameters(ctypes.Structure):
     _fields_ = [("law", ctypes.c_int)] + [(name, ctypes.c_double) for name in LAW_STRUCT_FIELDS]
 
 
+_DP = ctypes.POINTER(ctypes.c_double)
+
+
+class _LawLists(ctypes.Structure):
+    # Same layout as vf_law_lists in plugin/cpp/c_api.h: the list-valued parameters.
+    _fields_ = [("gms_count", ctypes.c_int), ("gms_stiffness", _DP), ("gms_weight", _DP),
+                ("gms_relaxation_time", ctypes.c_double),
+                ("position_map_count", ctypes.c_int), ("position_map_knots", _DP),
+                ("position_map_factors", _DP), ("position_map_period", ctypes.c_double),
+                ("velocity_map_count", ctypes.c_int), ("velocity_map_knots", _DP),
+                ("velocity_map_factors", _DP)]
+
+
 def load() -> ctypes.CDLL:
     """Register the vibrofriction plugins with MuJoCo (once; safe to call repeatedly).
 
@@ -64,8 +77,9 @@ def load() -> ctypes.CDLL:
         lib.vf_run_law.argtypes = [ctypes.POINTER(_LawParameters), ctypes.c_int, dp, dp, dp, dp,
                                    ctypes.c_double, dp, dp]
         lib.vf_run_law.restype = ctypes.c_int
-        lib.vf_run_gms_law.argtypes = [ctypes.POINTER(_LawParameters), ctypes.c_int, dp, dp,
-                                       ctypes.c_double, ctypes.c_int, dp, dp, dp, dp, dp, dp, dp]
-        lib.vf_run_gms_law.restype = ctypes.c_int
+        lib.vf_run_law_with_lists.argtypes = [ctypes.POINTER(_LawParameters),
+                                              ctypes.POINTER(_LawLists), ctypes.c_int, dp, dp,
+                                              dp, dp, dp, dp, dp]
+        lib.vf_run_law_with_lists.restype = ctypes.c_int
         _library = lib
         return lib

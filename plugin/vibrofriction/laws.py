@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._native import _LawParameters, load
+from ._native import _LawLists, _LawParameters, load
 from .params import PAPER_NORMAL_FORCE_N, FrictionParameters, ParameterError
 from .vocabulary import ALL_LAWS, FRICTION_TERMS
 
@@ -65,11 +65,11 @@ def run_law(friction: FrictionParameters, time_s, relative_velocity_m_per_s, *,
     """Friction force and deflection along a prescribed history (kinematic driving).
 
     ``normal_force_N`` is a constant or an array over the samples; ``position_m`` (relative
-    position on the support) feeds the position-ripple effect. Coulomb has no stick solve here
-    (the velocity is given): F = g(v) sgn(v) + sigma2 v, and 0 at v = 0 exactly. There is no
-    vibration here, so normal_force_modulation_frequency_Hz = 0 is 0 Hz (as in MJCF), not the
-    vibration frequency it means in the rigs. Law gms takes one initial deflection per element
-    (a number: the same for each) and starts with every element stuck.
+    position on the support) feeds the position ripple and the position map. Coulomb has no
+    stick solve here (the velocity is given): F = g(v) sgn(v) + sigma2 v, and 0 at v = 0
+    exactly. There is no vibration here, so normal_force_modulation_frequency_Hz = 0 is 0 Hz
+    (as in MJCF), not the vibration frequency it means in the rigs. Law gms takes one initial
+    deflection per element (a number: the same for each) and starts with every element stuck.
     """
     friction.validate()
     lib = load()
@@ -78,49 +78,51 @@ def run_law(friction: FrictionParameters, time_s, relative_velocity_m_per_s, *,
     v = _as_c_array(relative_velocity_m_per_s, n, "relative_velocity_m_per_s")
     constant_normal, normal_array = _normal_argument(normal_force_N, n)
     position = None if position_m is None else _as_c_array(position_m, n, "position_m")
-    force = np.empty(n)
-    deflection = np.empty(n)
-    dp = ctypes.POINTER(ctypes.c_double)
-
-    def ptr(a):
-        return None if a is None else a.ctypes.data_as(dp)
-
-    params = _c_parameters(friction, constant_normal)
-    if friction.law == "gms":
-        return _run_gms(lib, params, friction, t, v, position, normal_array,
-                        initial_deflection_m)
-    status = lib.vf_run_law(ctypes.byref(params), n, ptr(t), ptr(v), ptr(position),
-                            ptr(normal_array), float(initial_deflection_m), ptr(force),
-                            ptr(deflection))
-    if status != 0:
-        raise ParameterError("the friction-law C API rejected its arguments")
-    return LawRun(friction_force_N=force, deflection_m=deflection)
-
-
-def _run_gms(lib, params: _LawParameters, friction: FrictionParameters, t: np.ndarray,
-             v: np.ndarray, position: np.ndarray | None, normal: np.ndarray | None,
-             initial_deflection_m) -> LawRun:
-    n = t.shape[0]
     stiffness = np.ascontiguousarray(friction.gms_stiffness_N_per_m, dtype=np.float64)
-    weights = np.ascontiguousarray(friction.gms_element_weights, dtype=np.float64)
-    count = stiffness.shape[0]
-    z0 = np.broadcast_to(np.asarray(initial_deflection_m, dtype=np.float64), (count,)).copy() \
-        if np.ndim(initial_deflection_m) == 0 else \
-        _as_c_array(initial_deflection_m, count, "initial_deflection_m")
+    count = stiffness.shape[0] if friction.law == "gms" else 1
+    if np.ndim(initial_deflection_m) == 0:
+        z0 = np.full(count, float(initial_deflection_m))
+    else:
+        z0 = _as_c_array(initial_deflection_m, count, "initial_deflection_m")
     force = np.empty(n)
-    elements = np.empty((n, count))
-    dp = ctypes.POINTER(ctypes.c_double)
-
-    def ptr(a):
-        return None if a is None else a.ctypes.data_as(dp)
-
-    status = lib.vf_run_gms_law(ctypes.byref(params), count, ptr(stiffness), ptr(weights),
-                                float(friction.gms_relaxation_time_s), n, ptr(t), ptr(v),
-                                ptr(position), ptr(normal), ptr(z0), ptr(force), ptr(elements))
+    deflection = np.empty((n, count))
+    lists, keep = _c_lists(friction)
+    params = _c_parameters(friction, constant_normal)
+    status = lib.vf_run_law_with_lists(ctypes.byref(params), ctypes.byref(lists), n, _ptr(t),
+                                       _ptr(v), _ptr(position), _ptr(normal_array), _ptr(z0),
+                                       _ptr(force), _ptr(deflection))
+    del keep
     if status != 0:
         raise ParameterError("the friction-law C API rejected its arguments")
-    deflection = elements @ stiffness / stiffness.sum()
-    return LawRun(friction_force_N=force, deflection_m=deflection, element_deflection_m=elements)
+    if friction.law != "gms":
+        return LawRun(friction_force_N=force, deflection_m=deflection[:, 0])
+    return LawRun(friction_force_N=force, deflection_m=deflection @ stiffness / stiffness.sum(),
+                  element_deflection_m=deflection)
+
+
+def _ptr(array: np.ndarray | None):
+    return None if array is None else array.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+
+
+def _c_lists(friction: FrictionParameters) -> tuple[_LawLists, list[np.ndarray]]:
+    """The C lists struct and the arrays it points into (keep them alive through the call)."""
+    def array(values) -> np.ndarray:
+        return np.ascontiguousarray(values, dtype=np.float64)
+
+    gms = friction.law == "gms"
+    keep = [array(friction.gms_stiffness_N_per_m if gms else ()),
+            array(friction.gms_element_weights if gms else ()),
+            array(friction.position_map_knots_m), array(friction.position_map_factors),
+            array(friction.velocity_map_knots_m_per_s), array(friction.velocity_map_factors)]
+    lists = _LawLists(
+        gms_count=len(keep[0]), gms_stiffness=_ptr(keep[0]), gms_weight=_ptr(keep[1]),
+        gms_relaxation_time=float(friction.gms_relaxation_time_s),
+        position_map_count=len(keep[2]), position_map_knots=_ptr(keep[2]),
+        position_map_factors=_ptr(keep[3]),
+        position_map_period=float(friction.position_map_period_m),
+        velocity_map_count=len(keep[4]), velocity_map_knots=_ptr(keep[4]),
+        velocity_map_factors=_ptr(keep[5]))
+    return lists, keep
 
 
 def kinematic_mean_ratio(friction: FrictionParameters, *, drive_velocity_m_per_s: float,

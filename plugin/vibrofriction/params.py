@@ -27,9 +27,13 @@ from dataclasses import dataclass, fields, replace
 from typing import Any, Mapping
 
 from .errors import InputError
-from .vocabulary import (ALL_LAWS, DEFAULTS, MAX_GMS_ELEMENTS, PAPER_CONTACT_STIFFNESS_N_PER_M,
-                         PAPER_LAWS)
+from .vocabulary import (ALL_LAWS, DEFAULTS, MAX_GMS_ELEMENTS, MAX_MAP_KNOTS,
+                         PAPER_CONTACT_STIFFNESS_N_PER_M, PAPER_LAWS)
 from .vocabulary import LIMITS as _FRICTION_LIMITS
+
+# The list-valued fields (tuples; --set takes "a,b,c" or "a b c")
+_LIST_FIELDS = ("gms_stiffness_N_per_m", "gms_weights", "position_map_knots_m",
+                "position_map_factors", "velocity_map_knots_m_per_s", "velocity_map_factors")
 
 # The laws the study and identification run (the paper's four); ALL_LAWS adds gms, which the
 # elements simulate. ALL_LAWS is the C++ Law enum's order: ALL_LAWS.index(law) is its value.
@@ -157,27 +161,36 @@ class FrictionParameters:
     gms_stiffness_N_per_m: tuple[float, ...] = DEFAULTS["gms_stiffness_N_per_m"]
     gms_weights: tuple[float, ...] = DEFAULTS["gms_weights"]
     gms_relaxation_time_s: float = DEFAULTS["gms_relaxation_time_s"]
+    # The level times max(0, 1 + s), s a cubic spline through (knot, factor) pairs along the
+    # relative position (periodic when the period is > 0) and over the speed |v| (1D element)
+    position_map_knots_m: tuple[float, ...] = DEFAULTS["position_map_knots_m"]
+    position_map_factors: tuple[float, ...] = DEFAULTS["position_map_factors"]
+    position_map_period_m: float = DEFAULTS["position_map_period_m"]
+    velocity_map_knots_m_per_s: tuple[float, ...] = DEFAULTS["velocity_map_knots_m_per_s"]
+    velocity_map_factors: tuple[float, ...] = DEFAULTS["velocity_map_factors"]
     sensor_lag_s: float = DEFAULTS["sensor_lag_s"]  # first-order lag of the reported force
 
     def __post_init__(self) -> None:
         # Lists and arrays become tuples of floats: the parameters stay hashable and immutable.
-        for name in ("gms_stiffness_N_per_m", "gms_weights"):
+        for name in _LIST_FIELDS:
             value = getattr(self, name)
             if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
                 raise ParameterError(f"parameter {name}={_plain(value)!r} must be a list of "
-                                     "numbers, one per gms element")
+                                     "numbers")
             try:
                 object.__setattr__(self, name, tuple(float(x) for x in value))
             except (TypeError, ValueError):
-                raise ParameterError(f"parameter {name}={value!r} must be a list of numbers, "
-                                     "one per gms element") from None
+                raise ParameterError(f"parameter {name}={value!r} must be a list of "
+                                     "numbers") from None
 
     def law_values(self) -> dict[str, Any]:
         """Every field but ``law`` (the reports' parameter blocks), law gms's element fields
-        only for law gms (elsewhere they are empty and mean nothing)."""
+        only for law gms and a map only when it is given (lists as tuples)."""
         gms_only = ("gms_stiffness_N_per_m", "gms_weights", "gms_relaxation_time_s")
+        map_off = {"position_map_period_m": not self.position_map_knots_m}
         return {k: v for k, v in dataclasses.asdict(self).items()
-                if k != "law" and (self.law == "gms" or k not in gms_only)}
+                if k != "law" and (self.law == "gms" or k not in gms_only)
+                and v != () and not map_off.get(k, False)}
 
     @property
     def gms_element_weights(self) -> tuple[float, ...]:
@@ -192,6 +205,10 @@ class FrictionParameters:
         _check_limits(self)
         if self.law == "gms":
             self._validate_gms()
+        self._validate_map("position_map", self.position_map_knots_m, self.position_map_factors,
+                           self.position_map_period_m)
+        self._validate_map("velocity_map", self.velocity_map_knots_m_per_s,
+                           self.velocity_map_factors, 0.0)
         _require(self.friction_coefficient >= 0, "friction_coefficient",
                  self.friction_coefficient, "must be >= 0")
         if self.law != "coulomb":
@@ -219,6 +236,29 @@ class FrictionParameters:
                  self.normal_force_modulation_frequency_Hz, "must be >= 0")
         _require(self.sensor_lag_s >= 0, "sensor_lag_s", self.sensor_lag_s, "must be >= 0")
         return self
+
+    @staticmethod
+    def _validate_map(name: str, knots: tuple[float, ...], factors: tuple[float, ...],
+                      period: float) -> None:
+        knots_name = f"{name}_knots_m" + ("_per_s" if name == "velocity_map" else "")
+        if len(knots) != len(factors):
+            raise ParameterError(f"{knots_name} has {len(knots)} values and {name}_factors "
+                                 f"{len(factors)}; give one factor per knot")
+        if len(knots) > MAX_MAP_KNOTS:
+            raise ParameterError(f"{knots_name} has {len(knots)} knots; a map takes at most "
+                                 f"{MAX_MAP_KNOTS}")
+        for value in (*knots, *factors):
+            _require(math.isfinite(value), knots_name, knots, "must hold finite numbers")
+        _require(all(f > -1 for f in factors), f"{name}_factors", factors,
+                 "must hold factors > -1 (the level times 1 + factor stays positive)")
+        _require(all(b > a for a, b in zip(knots, knots[1:])), knots_name, knots,
+                 "must increase")
+        if name == "velocity_map":
+            _require(all(k >= 0 for k in knots), knots_name, knots, "must be speeds >= 0")
+        _require(period >= 0, f"{name}_period_m", period, "must be >= 0 (0: not periodic)")
+        if period > 0 and knots:
+            _require(knots[-1] < knots[0] + period, knots_name, knots,
+                     f"must lie within one period ({period:g} m)")
 
     def _validate_gms(self) -> None:
         stiffness, weights = self.gms_stiffness_N_per_m, self.gms_weights
@@ -263,9 +303,6 @@ def _plain(value: Any) -> Any:
     return value.item() if numpy_scalar else value
 
 
-_LIST_FIELDS = ("gms_stiffness_N_per_m", "gms_weights")
-
-
 def _all_field_names() -> dict[str, type]:
     names: dict[str, type] = {}
     for cls in (RigParameters, FrictionParameters):
@@ -294,7 +331,7 @@ def apply_overrides(rig: RigParameters, friction: FrictionParameters,
                 values = tuple(float(x) for x in items)
             except (TypeError, ValueError):
                 raise ParameterError(f"parameter {name}={raw!r} must be numbers separated by "
-                                     "commas or spaces, one per gms element") from None
+                                     "commas or spaces") from None
             if not all(math.isfinite(x) for x in values):
                 raise ParameterError(f"parameter {name}={raw!r} must hold finite numbers")
             friction_changes[name] = values

@@ -46,7 +46,7 @@ def check_planar(friction: FrictionParameters) -> FrictionParameters:
     """Validate and reject the 1D-only effects (direction asymmetry, ripple, offset, lag)."""
     friction.validate()
     for name in _NOT_PLANAR:
-        if getattr(friction, name) != 0:
+        if getattr(friction, name) not in (0, ()):
             raise ParameterError(f"parameter {name}={getattr(friction, name)!r} has no planar "
                                  "(isotropic) meaning; set it to 0 for the planar element")
     return friction

@@ -16,6 +16,9 @@ sliding. Friction level with the effects, for the direction ``s`` of v_r::
     F_c = mu F_N (1 + m sin(2 pi f_m t + phi_m)) (1 + a s) (1 + r sin(2 pi (x - u)/lambda + phi))
     F_s = static_ratio F_c,   g(v) = F_c + (F_s - F_c) exp(-(v/v_s)^2)
 
+times max(0, 1 + s(x - u)) with a position map and max(0, 1 + s(|v_r|)) with a velocity map
+(scipy's CubicSpline: natural, or periodic; beyond the knots constant, or linear for the speed).
+
 Laws (s0 = k_t, s1 bristle damping, s2 viscous; all integrated with LSODA):
 
 * ``dahl`` z' = v_r sgn(w)|w|^alpha, w = 1 - k_t z sgn(v_r)/g(v_r), F = k_t z + s2 v_r
@@ -45,6 +48,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from scipy.interpolate import CubicSpline
 from scipy.signal import lfilter
 
 from .params import VIBRATION_RAMP_PERIODS, FrictionParameters, ParameterError, RigParameters
@@ -119,9 +123,10 @@ def simulate_reference(rig: RigParameters, friction: FrictionParameters, duratio
         raise ParameterError("vibration_from_s is supported for the state laws (dahl, dupont, "
                              f"lugre), not for the hybrid {friction.law} reference")
     if friction.law == "gms" and (friction.static_ratio != 1 or friction.normal_force_modulation
-                                  or friction.position_ripple):
+                                  or friction.position_ripple or friction.position_map_knots_m
+                                  or friction.velocity_map_knots_m_per_s):
         raise ParameterError("the gms reference covers constant levels: static_ratio 1, no "
-                             "normal_force_modulation, no position_ripple")
+                             "normal_force_modulation, position_ripple or level maps")
     n_intervals = max(1, round(duration_s / sample_dt_s))
     t_grid = np.linspace(0.0, duration_s, n_intervals + 1)
     contact = _Contact(rig, friction)
@@ -221,6 +226,10 @@ class _Contact:
         self.static_ratio = p.static_ratio
         self.vs = p.stribeck_velocity_m_per_s
         self.offset_N = p.force_offset_N
+        self.position_map = _level_map(p.position_map_knots_m, p.position_map_factors,
+                                       p.position_map_period_m)
+        self.velocity_map = _level_map(p.velocity_map_knots_m_per_s, p.velocity_map_factors,
+                                       0.0, linear_ends=True)
 
     def coulomb_level(self, t: float, x_rel: float, direction: float) -> float:
         """F_c (N) with normal-load modulation, direction asymmetry and position ripple."""
@@ -233,10 +242,14 @@ class _Contact:
             level *= 1 - self.asymmetry
         if self.ripple:
             level *= 1 + self.ripple * math.sin(self.ripple_k_per_m * x_rel + self.ripple_phase)
+        if self.position_map:
+            level *= max(0.0, 1.0 + self.position_map(x_rel))
         return level
 
     def stribeck(self, fc: float, v: float) -> float:
-        """g(v) = F_c + (F_s - F_c) exp(-(v/v_s)^2)."""
+        """g(v) = F_c + (F_s - F_c) exp(-(v/v_s)^2), times the velocity map's 1 + s(|v|)."""
+        if self.velocity_map:
+            fc = fc * max(0.0, 1.0 + self.velocity_map(abs(v)))
         if self.static_ratio == 1:
             return fc
         return fc * (1 + (self.static_ratio - 1) * math.exp(-(v / self.vs) ** 2))
@@ -273,7 +286,30 @@ class _Contact:
 
     def static_limit(self, t: float, x_rel: float, direction: float) -> float:
         """F_s (N) the stuck contact can hold against impending slip in ``direction``."""
-        return self.static_ratio * self.coulomb_level(t, x_rel, direction)
+        return self.stribeck(self.coulomb_level(t, x_rel, direction), 0.0)
+
+
+def _level_map(knots: Sequence[float], factors: Sequence[float], period: float,
+               linear_ends: bool = False) -> Callable[[float], float] | None:
+    """s(x) of a level map by scipy's CubicSpline (natural, or periodic with ``period`` > 0):
+    constant beyond the knots, or (``linear_ends``) continued along the end slopes."""
+    if not knots:
+        return None
+    if len(knots) == 1:
+        return lambda x, c=float(factors[0]): c
+    if period > 0:
+        spline = CubicSpline([*knots, knots[0] + period], [*factors, factors[0]],
+                             bc_type="periodic")
+        return lambda x: float(spline(knots[0] + (x - knots[0]) % period))
+    spline = CubicSpline(knots, factors, bc_type="natural")
+    lo, hi = knots[0], knots[-1]
+
+    def value(x: float) -> float:
+        if lo <= x <= hi:
+            return float(spline(x))
+        end = lo if x < lo else hi
+        return float(spline(end) + (spline(end, 1) * (x - end) if linear_ends else 0.0))
+    return value
 
 
 def _odd_power(w: float, alpha: float) -> float:

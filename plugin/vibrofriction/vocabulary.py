@@ -27,6 +27,7 @@ ALL_LAWS = ("coulomb", "dahl", "dupont", "lugre", "gms")
 PAPER_LAWS = ALL_LAWS[:4]
 GMS_ELEMENTS = ("friction", "planar")  # the elements that take law gms
 MAX_GMS_ELEMENTS = 16  # friction_law.h kMaxGmsElements
+MAX_MAP_KNOTS = 16  # friction_law.h kMaxMapKnots
 # The elements whose config takes friction keys (vibrofriction.<name>) and the groups of them a
 # row names: every one; those with a velocity law of their own (the feeder's map holds its
 # velocity dependence); those that resolve the law in time (the averaged element's table holds
@@ -98,6 +99,18 @@ FRICTION_TERMS: tuple[Term, ...] = (
     Term("gms_weights", "gms_weight", None, "-", (), None, ("gms",), GMS_ELEMENTS),
     Term("gms_relaxation_time_s", "gms_relaxation_time", None, "s", 0.0, (0.0, 1e3), ("gms",),
          GMS_ELEMENTS),
+    # Level maps (LawParameters::position_map, velocity_map; lists, so not in the C API struct:
+    # vf_run_law_with_lists takes them): the level times 1 + a cubic spline through the factors
+    Term("position_map_knots_m", "position_map_knots", None, "m", (), (0.0, 1e6), ALL_LAWS,
+         LINE_ELEMENT_ONLY, shapes="position_map_factors"),
+    Term("position_map_factors", "position_map_factors", None, "-", (), (0.0, 1e3), ALL_LAWS,
+         LINE_ELEMENT_ONLY),
+    Term("position_map_period_m", "position_map_period", None, "m", 0.0, (0.0, 1e6), ALL_LAWS,
+         LINE_ELEMENT_ONLY, shapes="position_map_factors"),
+    Term("velocity_map_knots_m_per_s", "velocity_map_knots", None, "m/s", (), (0.0, 1e3),
+         ALL_LAWS, LINE_ELEMENT_ONLY, shapes="velocity_map_factors"),
+    Term("velocity_map_factors", "velocity_map_factors", None, "-", (), (0.0, 1e3), ALL_LAWS,
+         LINE_ELEMENT_ONLY),
     # (the element's reporting, not the law: kept by the element, not in LawParameters)
     Term("sensor_lag_s", "sensor_lag", None, "s", 0.0, (0.0, 1e3), ALL_LAWS, LINE_ELEMENT_ONLY),
 )
@@ -116,13 +129,15 @@ def element_keys(element: str) -> dict[str, str]:
 
 def config_values(friction, keys: dict[str, str]) -> dict[str, str]:
     """MJCF config values (strings) of ``friction`` (a FrictionParameters) for ``keys`` (term name
-    -> MJCF key): a number as repr(float), a list space-separated. The gms element lists are
-    written only for law gms (they are empty otherwise)."""
+    -> MJCF key): a number as repr(float), a list space-separated; an empty list (a map that is
+    off) is left out, and the gms keys are written only for law gms."""
     config = {}
     for name, key in keys.items():
         term = TERMS_BY_NAME[name]
         if term.laws == ("gms",) and friction.law != "gms":
             continue
+        if term.is_list and not getattr(friction, name) and name != "gms_weights":
+            continue  # an empty list: the map is off (and gms takes its weights' default)
         if term.is_list:
             values = friction.gms_element_weights if name == "gms_weights" else \
                 getattr(friction, name)
@@ -142,6 +157,6 @@ LAW_STRUCT_FIELDS = (
     "normal_modulation_phase", "force_offset")
 
 __all__ = ["Term", "FRICTION_TERMS", "TERMS_BY_NAME", "DEFAULTS", "MJCF_KEYS", "LIMITS",
-           "LAW_STRUCT_FIELDS", "ALL_LAWS", "PAPER_LAWS", "GMS_ELEMENTS", "MAX_GMS_ELEMENTS", "ALL_ELEMENTS", "VELOCITY_LAW_ELEMENTS",
+           "LAW_STRUCT_FIELDS", "ALL_LAWS", "PAPER_LAWS", "GMS_ELEMENTS", "MAX_GMS_ELEMENTS", "MAX_MAP_KNOTS", "ALL_ELEMENTS", "VELOCITY_LAW_ELEMENTS",
            "RESOLVING_ELEMENTS",
            "LINE_ELEMENT_ONLY", "PAPER_CONTACT_STIFFNESS_N_PER_M", "element_keys", "config_values"]

@@ -62,7 +62,9 @@ def report_json(result: Identification) -> dict[str, Any]:
     }
 
 
-def _finite(value: float) -> float | None:
+def _finite(value: float | tuple[float, ...]) -> float | list | None:
+    if isinstance(value, (tuple, list)):  # a map's knots or factors
+        return [_finite(x) for x in value]
     value = float(value)
     return value if math.isfinite(value) else None
 
