@@ -17,7 +17,8 @@ from pathlib import Path
 from .common import (UsageError, check_output_folder, check_replaceable_folder, check_writable,
                      parse_overrides, write_json)
 from ..datasets import Dataset, all_or_nothing, read_dataset
-from ..identify import EFFECTS, MIN_IMPROVEMENT, identify
+from ..identify import MIN_IMPROVEMENT, identify
+from ..identify.model import INVERSE_EFFECTS
 from ..identify.report import report_json, rig_replay, write_report
 from ..params import LAWS
 
@@ -95,10 +96,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     started = time.monotonic()
     declared = [e.strip() for e in args.declared.split(",") if e.strip()]
-    unknown = [e for e in declared if e not in EFFECTS]
+    unknown = [e for e in declared if e not in INVERSE_EFFECTS]
     if unknown:
         raise UsageError(f"--with: unknown effect(s) {', '.join(unknown)}; use: "
-                         f"{', '.join(EFFECTS)}")
+                         f"{', '.join(INVERSE_EFFECTS)}")
     if not 0 <= args.min_improvement < 1:
         raise UsageError(f"--min-improvement {args.min_improvement} must lie in [0, 1)")
     if args.substeps is not None and not 1 <= args.substeps <= 64:

@@ -29,6 +29,16 @@ from .record import Record
 # The identification vocabulary (docs/interfaces.md), in the order candidates are listed.
 EFFECTS = ("viscous", "stribeck", "asymmetry", "position_ripple", "normal_force_modulation",
            "drive_damping", "sensor_lag", "force_offset")
+# Effects beyond the vocabulary that the inverse path traces (issue 14): the friction level
+# as a spline along the travel and over the speed. Their shapes are free, so they compete with
+# the vocabulary's narrower forms on the information criterion.
+MAP_EFFECTS = ("position_map", "velocity_map")
+INVERSE_EFFECTS = EFFECTS + MAP_EFFECTS
+# Knots of a fitted map: evenly over the record's relative position (its range) and over
+# its speeds (0 to the 99th percentile of |v|); the factors sum to 0, so the map cannot trade
+# with the friction coefficient.
+POSITION_MAP_KNOTS = 8
+VELOCITY_MAP_KNOTS = 6
 
 # Law parameters fitted in the baseline, per law (the effect fields are not law parameters).
 LAW_PARAMETERS: dict[str, tuple[str, ...]] = {
@@ -78,15 +88,29 @@ class Scales:
     # quantiles of the record's estimated sliding speed: with a Stribeck curve the fit moves
     # the mean friction level over them, not mu (``Model.level_speeds_m_per_s``)
     sliding_speeds_m_per_s: tuple[float, ...] = ()
+    # the record's relative-position range and top speed (the maps' knots)
+    position_range_m: tuple[float, float] = (0.0, 1e-3)
+    top_speed_m_per_s: float = 1e-3
 
     @classmethod
     def of(cls, record: Record, friction_level_N: float) -> "Scales":
         v = float(np.sqrt(np.mean(record.relative_velocity_m_per_s ** 2))) or 1e-3
         dt = float(np.median(np.diff(record.time_s)))
         travel = float(np.ptp(record.relative_position_m)) or 1e-3
+        x = record.relative_position_m
+        top = float(np.quantile(np.abs(record.relative_velocity_m_per_s), 0.99)) or v
         return cls(force_N=max(friction_level_N, 1e-9), velocity_m_per_s=v,
                    normal_force_N=float(np.median(record.normal_force_N)) or 1.0,
-                   dt_s=dt, travel_m=travel)
+                   dt_s=dt, travel_m=travel, position_range_m=(float(x.min()), float(x.max())),
+                   top_speed_m_per_s=top)
+
+    def map_knots(self, effect: str) -> tuple[float, ...]:
+        """The knots of a fitted position or velocity map."""
+        if effect == "position_map":
+            low, high = self.position_range_m
+            return tuple(np.linspace(low, high if high > low else low + self.travel_m,
+                                     POSITION_MAP_KNOTS).tolist())
+        return tuple(np.linspace(0.0, self.top_speed_m_per_s, VELOCITY_MAP_KNOTS).tolist())
 
 
 def parameter_table(law: str, effects: Sequence[str], fit_mass: bool,
@@ -129,6 +153,9 @@ def parameter_table(law: str, effects: Sequence[str], fit_mass: bool,
                                          0.1 * f / v),
         # the replayed body's velocity at the first sample (a nuisance of the training record)
         "initial_velocity_m_per_s": Param("initial_velocity_m_per_s", -1e3 * v, 1e3 * v, v),
+        # a map's free factors (the last is minus their sum)
+        **{name: Param(name, -0.9, 0.9, 0.1) for name in (*EFFECT_INTERNALS["position_map"],
+                                                           *EFFECT_INTERNALS["velocity_map"])},
     }
     # Within the vocabulary's limits (params.LIMITS): a fit never proposes a value the
     # plugin or the parameter check would refuse.
@@ -162,6 +189,8 @@ EFFECT_INTERNALS: dict[str, tuple[str, ...]] = {
     "drive_damping": ("drive_damping_N_s_per_m",),
     "sensor_lag": ("sensor_lag_s",),
     "force_offset": ("force_offset_N",),
+    "position_map": tuple(f"position_map_c{i}" for i in range(1, POSITION_MAP_KNOTS)),
+    "velocity_map": tuple(f"velocity_map_c{i}" for i in range(1, VELOCITY_MAP_KNOTS)),
 }
 # Physical parameters each effect sets (vocabulary names: FrictionParameters / RigParameters).
 EFFECT_FIELDS: dict[str, tuple[str, ...]] = {
@@ -174,6 +203,10 @@ EFFECT_FIELDS: dict[str, tuple[str, ...]] = {
     "drive_damping": ("drive_damping_N_s_per_m",),
     "sensor_lag": ("sensor_lag_s",),
     "force_offset": ("force_offset_N",),
+    # a map's factor at each knot (FrictionParameters' position_map_factors /
+    # velocity_map_factors, with the knots the model holds)
+    "position_map": tuple(f"position_map_factor_{i}" for i in range(1, POSITION_MAP_KNOTS + 1)),
+    "velocity_map": tuple(f"velocity_map_factor_{i}" for i in range(1, VELOCITY_MAP_KNOTS + 1)),
 }
 
 
@@ -199,18 +232,25 @@ class Model:
     # came back at 1.01-1.02 and mu +14 %; in the level coordinate, with the restarts of
     # ``simulation._STRIBECK_RESTARTS``, exactly). Empty: mu itself.
     level_speeds_m_per_s: tuple[float, ...] = ()
+    # the knots of the fitted maps (Scales.map_knots), empty when the map is not fitted
+    position_map_knots_m: tuple[float, ...] = ()
+    velocity_map_knots_m_per_s: tuple[float, ...] = ()
 
     @classmethod
     def build(cls, law: str, effects: Sequence[str], fit_mass: bool, scales: Scales,
               base: FrictionParameters | None = None, state: Sequence[str] = (),
               scene: Sequence[str] = ()) -> "Model":
-        effects = tuple(e for e in EFFECTS if e in effects)
+        effects = tuple(e for e in INVERSE_EFFECTS if e in effects)
         base = base or FrictionParameters(law=law)
         speeds = tuple(scales.sliding_speeds_m_per_s) if "stribeck" in effects else ()
         return cls(law=law, effects=effects, fit_mass=fit_mass,
                    params=tuple(parameter_table(law, effects, fit_mass, scales, state, scene)),
                    base=replace(base, law=law), state=tuple(state), scene=tuple(scene),
-                   level_speeds_m_per_s=speeds)
+                   level_speeds_m_per_s=speeds,
+                   position_map_knots_m=scales.map_knots("position_map")
+                   if "position_map" in effects else (),
+                   velocity_map_knots_m_per_s=scales.map_knots("velocity_map")
+                   if "velocity_map" in effects else ())
 
     @property
     def names(self) -> list[str]:
@@ -254,7 +294,13 @@ class Model:
         """Physical values (vocabulary names) of everything this model fits."""
         raw = self.internal_values(q)
         out = {k: v for k, v in raw.items()
-               if k not in ("ripple_cos", "ripple_sin", "modulation_cos", "modulation_sin")}
+               if k not in ("ripple_cos", "ripple_sin", "modulation_cos", "modulation_sin")
+               and not k.startswith(("position_map_c", "velocity_map_c"))}
+        for effect in MAP_EFFECTS:
+            free = [raw[n] for n in EFFECT_INTERNALS[effect] if n in raw]
+            if free:  # the last factor closes the sum to 0
+                for name, value in zip(EFFECT_FIELDS[effect], [*free, -sum(free)]):
+                    out[name] = value
         if "ripple_cos" in raw:
             out["position_ripple"] = math.hypot(raw["ripple_cos"], raw["ripple_sin"])
             out["position_ripple_phase_rad"] = math.atan2(raw["ripple_sin"], raw["ripple_cos"])
@@ -275,6 +321,14 @@ class Model:
                             vibration_frequency_Hz: float | None = None) -> FrictionParameters:
         """The FrictionParameters these values define (for the plugin / rig)."""
         fields = {k: v for k, v in values.items() if hasattr(self.base, k)}
+        if self.position_map_knots_m:
+            fields["position_map_knots_m"] = self.position_map_knots_m
+            fields["position_map_factors"] = tuple(values[n]
+                                                   for n in EFFECT_FIELDS["position_map"])
+        if self.velocity_map_knots_m_per_s:
+            fields["velocity_map_knots_m_per_s"] = self.velocity_map_knots_m_per_s
+            fields["velocity_map_factors"] = tuple(values[n]
+                                                   for n in EFFECT_FIELDS["velocity_map"])
         friction = replace(self.base, **fields)
         if "normal_force_modulation" in values and vibration_frequency_Hz:
             friction = replace(friction,
@@ -295,7 +349,8 @@ class Model:
         if modulation and record.vibrating:
             phase = values.get("normal_force_modulation_phase_rad", 0.0)
             normal = normal * (1.0 + modulation * np.sin(record.grid_support_phase_rad() + phase))
-        position = record.grid_position_m if values.get("position_ripple", 0.0) else None
+        position = record.grid_position_m if (values.get("position_ripple", 0.0) or
+                                              self.position_map_knots_m) else None
         run = run_law(friction, record.grid_time_s, record.grid_velocity_m_per_s,
                       normal_force_N=normal, position_m=position)
         lag = values.get("sensor_lag_s", 0.0)
@@ -369,5 +424,5 @@ def first_order_lag(signal: np.ndarray, time_s: np.ndarray, tau_s: float,
 
 ProgressFn = Callable[[str], None]
 
-__all__ = ["EFFECTS", "LAW_PARAMETERS", "EFFECT_FIELDS", "EFFECT_INTERNALS", "Param", "Scales",
+__all__ = ["EFFECTS", "MAP_EFFECTS", "INVERSE_EFFECTS", "LAW_PARAMETERS", "EFFECT_FIELDS", "EFFECT_INTERNALS", "Param", "Scales",
            "Model", "first_order_lag", "forward_steps"]

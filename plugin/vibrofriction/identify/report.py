@@ -12,7 +12,7 @@ from ..datasets import stage_folder
 from ..params import RigParameters
 from ..provenance import json_text
 from .fit import FitResult
-from .model import EFFECT_FIELDS, EFFECTS
+from .model import EFFECT_FIELDS, INVERSE_EFFECTS, MAP_EFFECTS
 from .selection import Identification
 
 REPORT_FILES = ("report.json", "report.md", "fit.png", "residual_vs_regressor.png",
@@ -41,7 +41,7 @@ def report_json(result: Identification) -> dict[str, Any]:
                 "validation": [m.as_dict(True) for m in fit.validation]}
 
     candidates = []
-    for effect in EFFECTS:
+    for effect in INVERSE_EFFECTS:
         c = result.candidates.get(effect)
         if c is None:
             continue
@@ -177,7 +177,7 @@ def report_markdown(result: Identification, rig_replay: dict | None = None) -> s
               "attribute of the `vibrofriction.friction` plugin (docs/simulation.md, "
               "Parameters):", "",
               "    vibrofriction simulate --law " + r.law + " " +
-              " ".join(f"--set {k}={v:.6g}" for k, v in _set_values(r).items()), ""]
+              " ".join(f"--set {k}={_set_text(v)}" for k, v in _set_values(r).items()), ""]
     if rig_replay:
         lines += [f"Replayed in the MuJoCo rig (timestep {rig_replay['timestep_s']:g} s, from "
                   "rest, sidecar rig values): relative error of the "
@@ -225,7 +225,19 @@ def _set_values(r: Identification) -> dict[str, float]:
                 out[name] = value
     if r.train.mass_kg is not None or "mass_kg" in r.final.values:
         out["mass_kg"] = parameters(r, r.final)["mass_kg"]
+    fitted = parameters(r, r.final)
+    for effect in MAP_EFFECTS:  # a map: its knots and factors, as lists
+        if effect in r.final.model.effects:
+            prefix = effect.split("_")[0]
+            out.update({k: v for k, v in fitted.items() if k.startswith(f"{prefix}_map_")})
     return out
+
+
+def _set_text(value) -> str:
+    """A --set value: a number, or a list as comma-separated numbers."""
+    if isinstance(value, (list, tuple)):
+        return ",".join(f"{x:.6g}" for x in value)
+    return f"{value:.6g}"
 
 
 # ------------------------------------------------------------------------------ rig replay

@@ -35,7 +35,7 @@ from ..errors import InputError
 from ..params import LAWS, FrictionParameters
 from .analysis import ResidualAnalysis, analyse
 from .fit import FitResult, Problem
-from .model import EFFECTS, EFFECT_INTERNALS, Model, Scales
+from .model import EFFECT_INTERNALS, INVERSE_EFFECTS, Model, Scales
 from .record import Record, prepare
 from .replay import MIN_SAMPLES
 
@@ -104,7 +104,7 @@ def identify(train: Dataset, validation: Sequence[Dataset] = (), *, law: str = "
         + (", mass identified" if fit_mass else "")
         + (f", {len(held)} held-out record(s)" if held else ""))
     skipped = _not_applicable(record, law, declared)
-    declared = tuple(e for e in EFFECTS if e in declared and e not in skipped)
+    declared = tuple(e for e in INVERSE_EFFECTS if e in declared and e not in skipped)
     level, start = _initial_level(record, fit_mass, law)
     scales = Scales.of(record, level)
     base = FrictionParameters(law=law)
@@ -116,7 +116,7 @@ def identify(train: Dataset, validation: Sequence[Dataset] = (), *, law: str = "
     say(f"baseline: RMSE {baseline.train.rmse_N:.4g} N, relerr {baseline.train.relerr_pct:.3g} %")
     baseline_analysis = analyse(record, baseline.residual)
     current = baseline
-    remaining = [e for e in EFFECTS if e not in declared and e not in skipped]
+    remaining = [e for e in INVERSE_EFFECTS if e not in declared and e not in skipped]
     candidates: dict[str, Candidate] = {}
     rounds: list[list[Candidate]] = []
     selected: list[str] = []
@@ -181,14 +181,18 @@ def _not_applicable(record: Record, law: str, declared: Sequence[str]) -> dict[s
     return out
 
 
-def check_law_and_effects(law: str, declared: Sequence[str]) -> None:
-    """InputError naming an unknown law or effect (both identification paths)."""
+def check_law_and_effects(law: str, declared: Sequence[str],
+                          effects: Sequence[str] = INVERSE_EFFECTS) -> None:
+    """InputError naming an unknown law or effect (both identification paths: the simulation
+    path passes its own ``effects``, the vocabulary without the maps)."""
     if law not in LAWS:
         raise InputError(f"unknown friction law {law!r}; use one of: {', '.join(LAWS)}")
-    unknown = [e for e in declared if e not in EFFECTS]
+    unknown = [e for e in declared if e not in effects]
     if unknown:
-        raise InputError(f"unknown effect(s) {', '.join(unknown)}; the vocabulary is "
-                         f"{', '.join(EFFECTS)}")
+        maps = [e for e in unknown if e in INVERSE_EFFECTS]
+        where = f" ({', '.join(maps)}: the inverse path only, --method inverse)" if maps else ""
+        raise InputError(f"unknown effect(s) {', '.join(unknown)}{where}; the vocabulary is "
+                         f"{', '.join(effects)}")
 
 
 def check_identifiable(dataset) -> None:
@@ -279,7 +283,14 @@ def _candidate(problem: Problem, current: FitResult, effect: str, scales: Scales
     started = time.monotonic()
     # A candidate starts next to its optimum (the projection); one that needs more than this
     # budget is not clearly in the data, and a truncated fit only understates its merit.
-    fit = problem.fit(model, start, max_nfev=CANDIDATE_EVALUATIONS_PER_PARAMETER * (model.k + 1))
+    budget = CANDIDATE_EVALUATIONS_PER_PARAMETER * (model.k + 1)
+    fit = problem.fit(model, start, max_nfev=budget)
+    if fit.rss > current.rss:
+        # The projection linearizes; a free shape (a map) can start where the fit cannot come
+        # back from. The effect switched off is the current model: start there instead.
+        off = problem.fit(model, dict(current.model.internal_values(current.q)),
+                          max_nfev=budget)
+        fit = off if off.rss < fit.rss else fit
     seconds = time.monotonic() - started
     n_eff = fit.n_eff
     delta_bic = n_eff * math.log(fit.rss / current.rss) + (fit.k - current.k) * math.log(n_eff)
@@ -449,6 +460,7 @@ def _exposing_regressor(effect: str, analysis: ResidualAnalysis) -> str:
         "asymmetry": "relative_velocity", "position_ripple": "position",
         "normal_force_modulation": "support_phase", "drive_damping": "support_phase",
         "sensor_lag": "support_phase", "force_offset": "relative_velocity",
+        "position_map": "position", "velocity_map": "relative_velocity",
     }[effect]
     if preferred in analysis.binned:
         return preferred

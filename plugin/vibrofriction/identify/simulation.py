@@ -434,7 +434,7 @@ def identify_by_simulation(train: Dataset, validation: Sequence[Dataset] = (), *
     """Fit ``law`` (+ declared effects) to ``train`` by simulating the rig, then select."""
     started = time.monotonic()
     say = progress or (lambda message: None)
-    check_law_and_effects(law, declared)
+    check_law_and_effects(law, declared, EFFECTS)
     for record in (train, *validation):
         check_identifiable(record)
     replay = prepare_replay(train, substeps=substeps)
