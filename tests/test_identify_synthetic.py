@@ -19,6 +19,7 @@ import pytest
 from vibrofriction import cli, synthetic
 from vibrofriction.datasets import read_dataset, write_dataset
 from vibrofriction.identify import EFFECTS, identify
+from vibrofriction.identify.model import INVERSE_EFFECTS
 from vibrofriction.identify.report import report_json, rig_replay
 
 DURATION_S = 0.05
@@ -154,7 +155,7 @@ def test_cli_writes_the_report(records, tmp_path, capsys) -> None:
     report = json.loads((out / "report.json").read_text())
     assert list(report) == ["schema_version", "versions", "law", "method", "method_reason",
                             "baseline", "candidates", "selected_effects", "final",
-                            "residual_peaks_Hz"]
+                            "residual_peaks_Hz", "ringing_after_reversals"]
     assert report["method"] == "inverse" and "--method inverse" in report["method_reason"]
     assert report["law"] == "lugre"
     assert report["selected_effects"] == ["asymmetry"]
@@ -165,7 +166,8 @@ def test_cli_writes_the_report(records, tmp_path, capsys) -> None:
         assert set(block["validation"][0]) == {"dataset", "rmse_N", "relerr_pct"}
     for candidate in report["candidates"]:
         assert set(candidate) == {"effect", "parameters", "train", "validation", "criterion"}
-        assert candidate["effect"] in EFFECTS
+        assert candidate["effect"] in INVERSE_EFFECTS
+    assert report["ringing_after_reversals"] is None  # the rig's vibration only
     assert report["final"]["train"]["relerr_pct"] < report["baseline"]["train"]["relerr_pct"]
     assert report["final"]["parameters"]["asymmetry"] == pytest.approx(0.1, rel=0.03)
     text = (out / "report.md").read_text()

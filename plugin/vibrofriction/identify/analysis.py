@@ -8,6 +8,10 @@
   averaged over >= 8 segments exceeds its mean by less than 3x, so 10x is not reached by chance.
 * Autocorrelation and the integrated autocorrelation time tau (Sokal's automatic window): the
   residual carries n/tau independent samples, the sample size the selection criterion uses.
+* Ringing after reversals: the residual after each reversal of the sliding direction, signed
+  by the new direction and averaged over the reversals, fitted with a damped sinusoid
+  (frequency, damping ratio): a resonance the model lacks (a compliance, backlash), reported
+  when it carries a clear share of that averaged residual.
 """
 from __future__ import annotations
 
@@ -17,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import find_peaks, welch
 from scipy.ndimage import median_filter
+from scipy.optimize import least_squares
 
 from .record import Record
 
@@ -46,6 +51,31 @@ class Spectrum:
 
 
 @dataclass(frozen=True)
+class Ringing:
+    """A damped oscillation of the residual after the reversals (averaged, signed)."""
+
+    frequency_Hz: float  # damped frequency
+    damping_ratio: float
+    amplitude_N: float  # at the reversal
+    explained: float  # share of the averaged post-reversal residual's variance (detrended)
+    reversals: int
+    window_s: float
+
+    def as_dict(self) -> dict:
+        return {"frequency_Hz": self.frequency_Hz, "damping_ratio": self.damping_ratio,
+                "amplitude_N": self.amplitude_N, "explained": self.explained,
+                "reversals": self.reversals, "window_s": self.window_s}
+
+
+# A ringing is reported when the damped sinusoid carries this share of the averaged
+# post-reversal residual (detrended), completes two cycles in the window and is underdamped.
+RINGING_MIN_SHARE = 0.3
+RINGING_MIN_CYCLES = 2.0
+RINGING_MAX_DAMPING = 0.5
+RINGING_MIN_AMPLITUDE = 0.05  # of the residual's RMS
+
+
+@dataclass(frozen=True)
 class ResidualAnalysis:
     binned: dict[str, Binned]
     spectrum: Spectrum | None
@@ -53,6 +83,7 @@ class ResidualAnalysis:
     acf: np.ndarray
     tau_samples: float
     n_eff: float
+    ringing: Ringing | None = None
 
     def strongest(self) -> Binned | None:
         if not self.binned:
@@ -75,12 +106,106 @@ def analyse(record: Record, residual: np.ndarray) -> ResidualAnalysis:
                                           edges=np.linspace(0, 2 * math.pi, 37))
     t = record.time_s
     binned["time"] = _binned("time", "s", t, residual, edges=np.linspace(t[0], t[-1], 41))
+    since = time_since_reversal(t, v)
+    if np.isfinite(since).sum() > 40 and np.ptp(since[np.isfinite(since)]) > 0:
+        known = np.isfinite(since)
+        binned["time_since_reversal"] = _binned(
+            "time since the last reversal", "s", since[known], residual[known],
+            edges=np.unique(np.quantile(since[known], np.linspace(0, 1, 41))))
     spectrum = residual_spectrum(record, residual)
     lags, acf = autocorrelation(residual, max_lag=min(len(residual) // 4, 2000))
     tau = integrated_time(acf)
     dt = float(np.median(np.diff(t)))
     return ResidualAnalysis(binned=binned, spectrum=spectrum, acf_lags_s=lags * dt, acf=acf,
-                            tau_samples=tau, n_eff=len(residual) / tau)
+                            tau_samples=tau, n_eff=len(residual) / tau,
+                            ringing=ringing_after_reversals(t, v, residual))
+
+
+def reversal_indices(velocity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Samples where the sliding direction reverses (the sign of v changes, zeros skipped,
+    and the new direction reaches a tenth of the RMS speed before the next change), and
+    the new direction (+1 / -1)."""
+    sign = np.sign(velocity)
+    moving = np.flatnonzero(sign != 0)
+    if len(moving) < 2:
+        return np.array([], dtype=int), np.array([])
+    changes = moving[1:][sign[moving[1:]] != sign[moving[:-1]]]
+    rms = float(np.sqrt(np.mean(velocity ** 2)))
+    keep = []
+    for k, i in enumerate(changes):
+        end = changes[k + 1] if k + 1 < len(changes) else len(velocity)
+        if np.max(np.abs(velocity[i:end])) >= 0.1 * rms:  # a reversal, not noise at rest
+            keep.append(i)
+    keep = np.array(keep, dtype=int)
+    return keep, sign[keep] if len(keep) else np.array([])
+
+
+def time_since_reversal(time_s: np.ndarray, velocity: np.ndarray) -> np.ndarray:
+    """Time since the last reversal at each sample (inf before the first)."""
+    indices, _ = reversal_indices(velocity)
+    out = np.full(len(time_s), np.inf)
+    if len(indices):
+        last = np.searchsorted(indices, np.arange(len(time_s)), side="right") - 1
+        known = last >= 0
+        out[known] = time_s[known] - time_s[indices[last[known]]]
+    return out
+
+
+def ringing_after_reversals(time_s: np.ndarray, velocity: np.ndarray,
+                            residual: np.ndarray) -> Ringing | None:
+    """The damped sinusoid in the residual after the reversals, or None when there is none
+    (fewer than two reversals, or no clear, underdamped oscillation)."""
+    indices, directions = reversal_indices(velocity)
+    if len(indices) < 2:
+        return None
+    dt = float(np.median(np.diff(time_s)))
+    gaps = np.diff(indices)
+    width = int(min(np.median(gaps) // 2, len(residual) - indices[-1] - 1))
+    if width < 16:
+        return None
+    usable = [(i, d) for i, d in zip(indices, directions) if i + width <= len(residual)]
+    aligned = np.mean([d * residual[i:i + width] for i, d in usable], axis=0)
+    t = np.arange(width) * dt
+    trend = np.column_stack([np.ones(width), t / t[-1]])
+
+    def fit(sigma: float, omega: float) -> tuple[np.ndarray, np.ndarray]:
+        """(coefficients, residual vector) of the trend + damped sinusoid at (sigma, omega),
+        linear in the rest (variable projection)."""
+        decay = np.exp(-sigma * t)
+        a = np.column_stack([trend, decay * np.sin(omega * t), decay * np.cos(omega * t)])
+        coef, *_ = np.linalg.lstsq(a, aligned, rcond=None)
+        return coef, a @ coef - aligned
+
+    base_coef, *_ = np.linalg.lstsq(trend, aligned, rcond=None)
+    base_rss = float(np.sum((trend @ base_coef - aligned) ** 2))
+    if base_rss <= 1e-12 * float(np.sum(aligned ** 2)):  # a step or a ramp, nothing rings
+        return None
+    lowest = 2 * math.pi * RINGING_MIN_CYCLES / t[-1]
+    best = None
+    for omega in np.geomspace(lowest, math.pi / dt * 0.8, 60):
+        for ratio in (0.0, 0.05, 0.15, 0.3):
+            sigma = ratio * omega
+            rss = float(np.sum(fit(sigma, omega)[1] ** 2))
+            if best is None or rss < best[0]:
+                best = (rss, sigma, omega)
+    refined = least_squares(lambda p: fit(p[0], p[1])[1], [best[1], best[2]],
+                            bounds=([0.0, lowest], [np.inf, math.pi / dt]), x_scale="jac")
+    sigma, omega = float(refined.x[0]), float(refined.x[1])
+    coef, vector = fit(sigma, omega)
+    rss = float(np.sum(vector ** 2))
+    if rss > best[0]:
+        sigma, omega = best[1], best[2]
+        coef, vector = fit(sigma, omega)
+        rss = float(np.sum(vector ** 2))
+    explained = 1.0 - rss / base_rss
+    zeta = sigma / math.hypot(sigma, omega)
+    amplitude = float(math.hypot(coef[2], coef[3]))
+    if explained < RINGING_MIN_SHARE or zeta > RINGING_MAX_DAMPING or \
+            amplitude < RINGING_MIN_AMPLITUDE * float(np.sqrt(np.mean(residual ** 2))):
+        return None
+    return Ringing(frequency_Hz=float(omega / (2 * math.pi)), damping_ratio=float(zeta),
+                   amplitude_N=amplitude, explained=float(explained),
+                   reversals=len(usable), window_s=float(t[-1]))
 
 
 def _binned(name: str, unit: str, values: np.ndarray, residual: np.ndarray,

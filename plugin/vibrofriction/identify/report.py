@@ -59,6 +59,9 @@ def report_json(result: Identification) -> dict[str, Any]:
         "final": block(result.final),
         "residual_peaks_Hz": [round(f, 6) for f in result.final_analysis.spectrum.peaks_Hz]
         if result.final_analysis.spectrum else [],
+        # a damped oscillation after the reversals that the final model leaves (null: none)
+        "ringing_after_reversals": result.final_analysis.ringing.as_dict()
+        if result.final_analysis.ringing else None,
     }
 
 
@@ -172,6 +175,15 @@ def report_markdown(result: Identification, rig_replay: dict | None = None) -> s
         " stand above the noise floor and no effect of the vocabulary explains them "
         "(`residual_peaks_Hz`)." if final_peaks else "no spectral peak stands above the noise "
         "floor."), ""]
+    ringing = r.final_analysis.ringing
+    if ringing:
+        lines += [f"Ringing after the reversals (`ringing_after_reversals`): the residual, "
+                  f"averaged over {ringing.reversals} reversals and signed by the new direction, "
+                  f"is a damped oscillation at {ringing.frequency_Hz:.4g} Hz with damping ratio "
+                  f"{ringing.damping_ratio:.3g} and {ringing.amplitude_N:.3g} N at the reversal "
+                  f"({100 * ringing.explained:.0f} % of that averaged residual): a resonance "
+                  "the friction model lacks -- a compliance in series with the contact, or "
+                  "backlash whose impacts excite it.", ""]
     lines += ["## The final model in MuJoCo", "",
               "Every fitted value is a field of FrictionParameters / RigParameters, i.e. a config "
               "attribute of the `vibrofriction.friction` plugin (docs/simulation.md, "
