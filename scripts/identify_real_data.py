@@ -147,6 +147,13 @@ def table(results: list[dict]) -> str:
              for r in results if r["report"]["residual_peaks_Hz"]]
     if peaks:
         lines += ["", "Unexplained residual peaks (`residual_peaks_Hz`): " + "; ".join(peaks) + "."]
+    ringing = [f"{r['case']}: {g['frequency_Hz']:.3g} Hz, damping ratio {g['damping_ratio']:.2g}, "
+               f"{g['amplitude_N']:.3g} N ({100 * g['explained']:.0f} % of the residual after "
+               f"{g['reversals']} reversals)"
+               for r in results if (g := r["report"].get("ringing_after_reversals"))]
+    if ringing:
+        lines += ["", "Ringing after the reversals (`ringing_after_reversals`): " +
+                  "; ".join(ringing) + "."]
     return "\n".join(lines)
 
 
