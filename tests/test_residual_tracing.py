@@ -48,3 +48,21 @@ def test_noise_and_a_steady_offset_are_no_ringing():
     assert ringing_after_reversals(TIME, VELOCITY, 50.0 * rng.standard_normal(TIME.size)) is None
     assert ringing_after_reversals(TIME, VELOCITY, 30.0 * np.sign(VELOCITY)) is None
     assert ringing_after_reversals(TIME, np.ones_like(TIME), TIME) is None  # no reversal
+
+
+def test_a_record_ending_soon_after_a_reversal_keeps_the_window():
+    """The last, cut-off window is left out; it does not shorten the others."""
+    rng = np.random.default_rng(5)
+    end = np.searchsorted(TIME, 5.53)  # 30 ms after the last reversal at 5.5 s
+    residual = _ringing(37.0, 0.06, 500.0) + 50.0 * rng.standard_normal(TIME.size)
+    found = ringing_after_reversals(TIME[:end], VELOCITY[:end], residual[:end])
+    assert found is not None and found.reversals == 10
+    assert found.frequency_Hz == pytest.approx(37.0, rel=0.01)
+    assert found.window_s == pytest.approx(0.25, abs=2 * DT)
+
+
+def test_a_stop_and_go_is_no_reversal():
+    from vibrofriction.identify.analysis import reversal_indices
+    velocity = np.concatenate([np.ones(100), np.full(5, -1e-4), np.ones(100), -np.ones(100)])
+    indices, directions = reversal_indices(velocity)
+    assert indices.tolist() == [205] and directions.tolist() == [-1]

@@ -69,6 +69,7 @@ bool SetLawLists(const vf_law_lists* lists, LawParameters* p) {
       total += lists->gms_weight[i];
     }
     if (!(std::fabs(total - 1.0) <= 1e-6)) return false;
+    for (int i = 0; i < count; ++i) p->gms.weight[i] /= total;  // as the config reader: 1 in all
     p->gms.count = count;
     p->gms.relaxation_time = lists->gms_relaxation_time;
   }

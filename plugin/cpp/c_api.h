@@ -16,7 +16,7 @@ extern "C" {
 #endif
 
 typedef struct vf_law_parameters {
-  int law;  // 0 coulomb, 1 dahl, 2 dupont, 3 lugre (4 gms: vf_run_gms_law)
+  int law;  // 0 coulomb, 1 dahl, 2 dupont, 3 lugre (4 gms: vf_run_law_with_lists)
   double friction_coefficient, normal_force, contact_stiffness, alpha, breakaway_ratio,
       bristle_damping, viscous, static_ratio, stribeck_velocity, asymmetry, ripple,
       ripple_wavelength, ripple_phase, normal_modulation, normal_modulation_frequency,

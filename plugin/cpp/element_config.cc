@@ -177,7 +177,7 @@ bool ReadLawParameters(const mjModel* m, int instance, const char* plugin, LawPa
                              "remove sigma1, or use viscous for a damping in sliding");
     }
   }
-  if (HasDeflection(p.law) && p.contact_stiffness <= 0) {
+  if (HasDeflection(p.law) && p.law != Law::kGms && p.contact_stiffness <= 0) {
     return RejectAttribute(plugin, kStiffness, p.contact_stiffness,
                            "must be > 0 (N/m), e.g. 8e7 for 80 N/um");
   }

@@ -791,26 +791,45 @@ void AdvanceGms(const LawParameters& p, const LawInput& in, const double v[D], d
   double speed = 0.0;
   for (int j = 0; j < D; ++j) speed += v[j] * v[j];
   speed = std::sqrt(speed);
-  const double level = StribeckLevel(p, AtSpeed(in, D == 1 ? v[0] : speed));
+  // The level on either side: in 1D the direction asymmetry gives each side its own, and an
+  // element is limited on the side its deflection lies (so a reversal unloads it elastically
+  // across to the other side's level); in the plane the level is isotropic.
+  double level_positive, level_negative;
+  if (D == 1) {
+    LawInput at = in;
+    at.velocity = v[0];
+    const double shape = VelocityShape(p, v[0]);
+    level_positive = CoulombLevel(p, at, 1.0) * shape;
+    level_negative = CoulombLevel(p, at, -1.0) * shape;
+  } else {
+    level_positive = level_negative = StribeckLevel(p, AtSpeed(in, speed));
+  }
   for (int i = 0; i < p.gms.count; ++i) {
     double* zi = z + D * i;
-    const double limit = std::max(p.gms.weight[i] * level, 0.0) / p.gms.stiffness[i];
+    const double share = p.gms.weight[i] / p.gms.stiffness[i];
+    // the slip deflection on the side of `side` (1D: its sign; the plane: any)
+    auto limit_on = [&](double side) {
+      return std::max(share * (side < 0 ? level_negative : level_positive), 0.0);
+    };
     if (slipping[i] != 0 && !(Dot<D>(v, zi) > 0)) slipping[i] = 0;  // reversed or stopped
     double remaining = dt;
+    double limit = limit_on(v[0]);  // a slipping element's side: that of the motion
     if (slipping[i] == 0) {
       double trial[D];
       for (int j = 0; j < D; ++j) trial[j] = zi[j] + v[j] * dt;
       const double trial_norm = std::sqrt(Dot<D>(trial, trial));
-      if (trial_norm <= limit) {  // sticks the whole step
+      const double trial_limit = limit_on(trial[0]);
+      if (trial_norm <= trial_limit) {  // sticks the whole step
         for (int j = 0; j < D; ++j) zi[j] = trial[j];
         continue;
       }
       if (!(Dot<D>(v, trial) > 0)) {
         // Unloading, yet beyond a level that fell (Stribeck, load): back to the level.
-        for (int j = 0; j < D; ++j) zi[j] = limit * trial[j] / trial_norm;
+        for (int j = 0; j < D; ++j) zi[j] = trial_limit * trial[j] / trial_norm;
         continue;
       }
-      // Loading through the level: stick until the crossing, slip for the rest of the step.
+      // Loading through the level (on the side of the motion): stick until the crossing,
+      // slip for the rest of the step.
       const double t_cross =
           Dot<D>(zi, zi) < limit * limit ? std::min(CrossingTime<D>(zi, v, limit), dt) : 0.0;
       for (int j = 0; j < D; ++j) zi[j] += v[j] * t_cross;

@@ -211,7 +211,7 @@ class FrictionParameters:
                            self.velocity_map_factors, 0.0)
         _require(self.friction_coefficient >= 0, "friction_coefficient",
                  self.friction_coefficient, "must be >= 0")
-        if self.law != "coulomb":
+        if self.law not in ("coulomb", "gms"):  # (gms: its elements' stiffnesses)
             _require(self.contact_stiffness_N_per_m > 0, "contact_stiffness_N_per_m",
                      self.contact_stiffness_N_per_m, "must be > 0")
         _require(self.alpha >= 0, "alpha", self.alpha, "must be >= 0")
@@ -255,7 +255,8 @@ class FrictionParameters:
                  "must increase")
         if name == "velocity_map":
             _require(all(k >= 0 for k in knots), knots_name, knots, "must be speeds >= 0")
-        _require(period >= 0, f"{name}_period_m", period, "must be >= 0 (0: not periodic)")
+        _require(math.isfinite(period) and period >= 0, f"{name}_period_m", period,
+                 "must be finite and >= 0 (0: not periodic)")
         if period > 0 and knots:
             _require(knots[-1] < knots[0] + period, knots_name, knots,
                      f"must lie within one period ({period:g} m)")

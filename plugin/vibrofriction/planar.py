@@ -82,6 +82,10 @@ def run_planar_law(friction: FrictionParameters, time_s, relative_velocity_m_per
     = 0 is 0 Hz, as in MJCF.
     """
     check_planar(friction)
+    if friction.law == "gms":
+        raise ParameterError("law gms has no kinematic planar driver (its elements' slip flags "
+                             "live in the planar element): simulate it with vibrofriction.planar "
+                             "in MuJoCo (planar.build_rig_spec)")
     lib = load()
     fn = lib.vf_run_planar_law
     dp = ctypes.POINTER(ctypes.c_double)

@@ -93,7 +93,7 @@ FRICTION_TERMS: tuple[Term, ...] = (
     Term("force_offset_N", "force_offset", "force_offset", "N", 0.0, (0.0, 1e9), ALL_LAWS,
          LINE_ELEMENT_ONLY),
     # law gms: one value per element (LawParameters::gms, not in the C API struct: the gms
-    # elements go to vf_run_gms_law as arrays)
+    # elements go to vf_run_law_with_lists as arrays)
     Term("gms_stiffness_N_per_m", "gms_stiffness", None, "N/m", (), (0.0, 1e18), ("gms",),
          GMS_ELEMENTS),
     Term("gms_weights", "gms_weight", None, "-", (), None, ("gms",), GMS_ELEMENTS),

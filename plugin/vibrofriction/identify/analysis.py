@@ -132,10 +132,14 @@ def reversal_indices(velocity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     changes = moving[1:][sign[moving[1:]] != sign[moving[:-1]]]
     rms = float(np.sqrt(np.mean(velocity ** 2)))
     keep = []
+    direction = sign[moving[0]]
     for k, i in enumerate(changes):
         end = changes[k + 1] if k + 1 < len(changes) else len(velocity)
-        if np.max(np.abs(velocity[i:end])) >= 0.1 * rms:  # a reversal, not noise at rest
+        # a reversal, not noise at rest, and not the return to the direction kept before
+        # a blip of the other sign (a stop-and-go)
+        if sign[i] != direction and np.max(np.abs(velocity[i:end])) >= 0.1 * rms:
             keep.append(i)
+            direction = sign[i]
     keep = np.array(keep, dtype=int)
     return keep, sign[keep] if len(keep) else np.array([])
 
@@ -159,11 +163,10 @@ def ringing_after_reversals(time_s: np.ndarray, velocity: np.ndarray,
     if len(indices) < 2:
         return None
     dt = float(np.median(np.diff(time_s)))
-    gaps = np.diff(indices)
-    width = int(min(np.median(gaps) // 2, len(residual) - indices[-1] - 1))
-    if width < 16:
-        return None
+    width = int(np.median(np.diff(indices)) // 2)
     usable = [(i, d) for i, d in zip(indices, directions) if i + width <= len(residual)]
+    if width < 16 or len(usable) < 2:  # (a window past the record's end is left out)
+        return None
     aligned = np.mean([d * residual[i:i + width] for i, d in usable], axis=0)
     t = np.arange(width) * dt
     trend = np.column_stack([np.ones(width), t / t[-1]])

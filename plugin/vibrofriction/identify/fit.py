@@ -92,11 +92,20 @@ class Problem:
         uncertainties = _uncertainties(model, q, jac, rss, len(residual), n_eff)
         train, held = self.metrics(model, values)
         lo, hi = model.bounds()
-        at_bound = tuple(p.name for p, x, a, b in zip(model.params, q, lo, hi)
-                         if min(x - a, b - x) <= 1e-6 * max(1.0, abs(x)) and p.name in values)
+        at_bound = tuple(_value_name(p.name) for p, x, a, b in zip(model.params, q, lo, hi)
+                         if min(x - a, b - x) <= 1e-6 * max(1.0, abs(x))
+                         and _value_name(p.name) in values)
         return FitResult(model=model, q=np.array(q), values=values, residual=residual, rss=rss,
                          n_eff=n_eff, uncertainties=uncertainties, train=train,
                          validation=held, nfev=nfev, notes=list(notes), at_bound=at_bound)
+
+
+def _value_name(internal: str) -> str:
+    """The reported value an internal coordinate moves (a map's free factor c_i: factor_i)."""
+    for prefix in ("position_map_c", "velocity_map_c"):
+        if internal.startswith(prefix):
+            return f"{prefix[:-1]}factor_{internal[len(prefix):]}"
+    return internal
 
 
 def _metrics(name: str, predicted: np.ndarray, measured: np.ndarray) -> Metrics:

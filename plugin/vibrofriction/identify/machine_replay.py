@@ -24,6 +24,7 @@ that ``friction_coefficient`` is the friction level in N.
 """
 from __future__ import annotations
 
+
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -38,6 +39,13 @@ from ..errors import InputError
 from ..params import FrictionParameters, RigParameters
 from .replay import (SampleGrid, contact_at_rest, full_state, grid_steps, noise_sd,
                      speed_quantiles, substeps_of_record, uniform_times)
+from ..vocabulary import FRICTION_TERMS
+
+# The friction keys a fitted law must not inherit from the scene: the lists (maps, gms
+# elements) and the values that only shape them.
+_LAW_LIST_KEYS = {t.mjcf_key for t in FRICTION_TERMS
+                  if t.is_list or t.shapes in ("position_map_factors", "velocity_map_factors")
+                  or t.laws == ("gms",)}
 
 
 # A scene says how a record maps onto it in MJCF custom text elements (kept in the model):
@@ -290,7 +298,10 @@ class MachineReplay(SampleGrid):
             coefficients = np.array(joint.damping, dtype=float)  # (linear first)
             coefficients[0] = damping
             joint.damping = coefficients
-        config = {**scene.friction_config, **rig_module.friction_config(rig, friction)}
+        # The fitted friction replaces the scene's whole law: its list keys (maps, gms
+        # elements), which an empty list leaves unwritten, must not survive from the scene.
+        own = {k: v for k, v in scene.friction_config.items() if k not in _LAW_LIST_KEYS}
+        config = {**own, **rig_module.friction_config(rig, friction)}
         config["modulation_frequency"] = repr(float(
             friction.normal_force_modulation_frequency_Hz))
         if scene.normal_load_given:  # the scene's normal load, as the scene sets it

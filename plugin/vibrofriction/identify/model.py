@@ -39,6 +39,7 @@ INVERSE_EFFECTS = EFFECTS + MAP_EFFECTS
 # with the friction coefficient.
 POSITION_MAP_KNOTS = 8
 VELOCITY_MAP_KNOTS = 6
+MAP_FACTOR_BOUND = 0.9  # |factor| at a knot: the level stays within 0.1 and 1.9 times its mean
 
 # Law parameters fitted in the baseline, per law (the effect fields are not law parameters).
 LAW_PARAMETERS: dict[str, tuple[str, ...]] = {
@@ -153,9 +154,9 @@ def parameter_table(law: str, effects: Sequence[str], fit_mass: bool,
                                          0.1 * f / v),
         # the replayed body's velocity at the first sample (a nuisance of the training record)
         "initial_velocity_m_per_s": Param("initial_velocity_m_per_s", -1e3 * v, 1e3 * v, v),
-        # a map's free factors (the last is minus their sum)
-        **{name: Param(name, -0.9, 0.9, 0.1) for name in (*EFFECT_INTERNALS["position_map"],
-                                                           *EFFECT_INTERNALS["velocity_map"])},
+        # a map's free factors (the last is minus their sum, held within the same bound)
+        **{name: Param(name, -MAP_FACTOR_BOUND, MAP_FACTOR_BOUND, 0.1)
+           for name in (*EFFECT_INTERNALS["position_map"], *EFFECT_INTERNALS["velocity_map"])},
     }
     # Within the vocabulary's limits (params.LIMITS): a fit never proposes a value the
     # plugin or the parameter check would refuse.
@@ -298,8 +299,9 @@ class Model:
                and not k.startswith(("position_map_c", "velocity_map_c"))}
         for effect in MAP_EFFECTS:
             free = [raw[n] for n in EFFECT_INTERNALS[effect] if n in raw]
-            if free:  # the last factor closes the sum to 0
-                for name, value in zip(EFFECT_FIELDS[effect], [*free, -sum(free)]):
+            if free:  # the last factor closes the sum to 0, within the factors' range (> -1)
+                closing = min(max(-sum(free), -MAP_FACTOR_BOUND), MAP_FACTOR_BOUND)
+                for name, value in zip(EFFECT_FIELDS[effect], [*free, closing]):
                     out[name] = value
         if "ripple_cos" in raw:
             out["position_ripple"] = math.hypot(raw["ripple_cos"], raw["ripple_sin"])
