@@ -529,3 +529,31 @@ def test_no_stick_phases_without_slips_or_on_a_vibrating_support() -> None:
         noisy = synthetic.with_sensor_noise(dataset_of(run, "creeping"), seed=seed)
         assert stick_phase_steps(prepare_replay(noisy)) == []
     assert stick_phase_steps(prepare_replay(_record("lugre"))) == []
+
+
+def test_a_measured_normal_load_drives_the_replayed_element() -> None:
+    """Issue 14, item 2: a record's normal_force_N column is the element's F_N step by step
+    (normal_from_ctrl: the friction actuator's ctrl), not its median. A simulate record whose
+    load varies at 40 Hz by 30 % identifies exactly with nothing selected (without the column
+    the replay holds the median load, which no effect of the vocabulary can vary at 40 Hz)."""
+    truth = replace(LAWS["dahl"], normal_force_modulation=0.3,
+                    normal_force_modulation_frequency_Hz=40.0,
+                    normal_force_modulation_phase_rad=0.5)
+    run = rig.simulate(RIG, truth, timestep_s=rig.recommended_timestep(RIG), duration_s=DURATION_S)
+    record = dataset_of(run, "dahl")
+    assert "normal_force_N" in record.columns  # the element's sensor: the modulated load
+    replay = prepare_replay(record)
+    assert replay.normal_force_from_record
+    load = np.interp(replay.time_s[0] + replay.timestep_s * (np.arange(replay.nstep) + 0.5),
+                     record.time_s, record.columns["normal_force_N"])
+    np.testing.assert_allclose(replay.control[:, 3], load)
+    result = identify_by_simulation(record, law="dahl")
+    assert result.selected == []
+    fitted = result.final.model.friction_parameters(result.final.values)
+    for name in LAW_FIELDS["dahl"]:
+        assert getattr(fitted, name) == pytest.approx(getattr(truth, name), rel=1e-3), name
+    # without the column the replay holds the median load
+    median_only = Dataset(name="median_load", metadata=record.metadata, columns={
+        k: v for k, v in record.columns.items() if k != "normal_force_N"})
+    replay = prepare_replay(median_only)
+    assert not replay.normal_force_from_record and not replay.control[:, 3].any()

@@ -32,7 +32,7 @@ ATTRIBUTE_ARRAYS = {"contact_averaged": "kAveragedAttributes",
 NORMAL_LOAD_KEYS = {"normal", "normal_sensor", "normal_gain", "normal_component",
                     "contact_geom1", "contact_geom2"}
 OWN_KEYS = {
-    "friction": {"law", *NORMAL_LOAD_KEYS},
+    "friction": {"law", "normal_from_ctrl", *NORMAL_LOAD_KEYS},
     "planar": {"law", *NORMAL_LOAD_KEYS},
     "contact": {"law", "support", "torsion_radius"},  # the load: MuJoCo's contacts
     "averaged": {*NORMAL_LOAD_KEYS, "velocity_amplitude", "axis_angle", "use_ctrl", "table_xi",

@@ -284,6 +284,7 @@ double NormalLoad::Value(const mjModel* m, const mjData* d, const mjtNum* state)
   double value = normal;
   if (sensor >= 0) value += gain * d->sensordata[m->sensor_adr[sensor] + component];
   if (geom1 >= 0) value += gain * state[0];
+  if (ctrl >= 0) value += gain * d->ctrl[ctrl];  // this step's: ctrl is set before the step
   return value;
 }
 

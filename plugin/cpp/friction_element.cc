@@ -28,7 +28,7 @@ const char* const kAttributes[] = {
     kStribeckVelocity, kAsymmetry, kRipple, kRippleWavelength, kRipplePhase, kNormalModulation,
     kModulationFrequency, kModulationPhase, kForceOffset, kSensorLag, kGmsStiffness, kGmsWeight,
     kGmsRelaxationTime, kPositionMapKnots, kPositionMapFactors, kPositionMapPeriod,
-    kVelocityMapKnots, kVelocityMapFactors};
+    kVelocityMapKnots, kVelocityMapFactors, kNormalFromCtrl};
 
 constexpr char kPlugin[] = "vibrofriction.friction";
 
@@ -160,6 +160,18 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
 
   c.actuator = FindActuator(m, instance, kPlugin);
   if (c.actuator < 0) return false;
+  bool from_ctrl = false;
+  if (!ReadBool(m, instance, kPlugin, kNormalFromCtrl, false, &from_ctrl)) return false;
+  if (from_ctrl) {
+    if (c.normal.sensor >= 0 || c.normal.UsesContacts()) {
+      ConfigError("%s: 'normal_from_ctrl' and '%s' are both set; use one source for the "
+                  "normal load", kPlugin, c.normal.sensor >= 0 ? kNormalSensor : kContactGeom1);
+      return false;
+    }
+    // F_N = normal + normal_gain * ctrl of the element's own actuator (a measured load
+    // replayed step by step: no sensor stage between, so no step of delay)
+    c.normal.ctrl = c.actuator;
+  }
   if (scope == ReadScope::kAttributes) return true;  // the actuator's fields are not set yet
   if (m->actuator_actnum[c.actuator] < 1) {
     ConfigError("%s: the actuator has no state for the deflection z; add actdim=\"%d\" to the "

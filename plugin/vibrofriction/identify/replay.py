@@ -88,6 +88,10 @@ _ELASTIC_FRACTION = 0.9  # initial deflection at most this fraction of the stati
 # position and velocity of a least-squares parabola through this many samples either side.
 SEGMENT_SMOOTHING_SAMPLES = 5
 
+# ctrl column of the rig's friction actuator (rig.xml's actuator order: table_shaker,
+# drive_end_motion, drive_spring, then each scene's friction): a record's measured normal load
+FRICTION_CTRL = 3
+
 
 class SampleGrid:
     """What every replay derives from its record's samples (``time_s``, ``substeps``,
@@ -234,6 +238,9 @@ class RigReplay(SampleGrid):
     sliding_steps_per_sample: float | None = None
     # the support's measured velocity held only its sensor's noise: replayed still
     support_still: bool = False
+    # the record's normal_force_N column drives F_N step by step (the friction actuator's
+    # ctrl, control[:, 3], through the element's normal_from_ctrl); False: rig.normal_force_N
+    normal_force_from_record: bool = False
 
     @property
     def sliding(self) -> bool:
@@ -321,8 +328,10 @@ class RigReplay(SampleGrid):
             force = line_at_t(self.measured["friction_force_N"])
         else:
             force = line_at_t(self.measured["drive_force_N"]) - mass_kg * 2.0 * float(curvature)
+        normal = self.control[min(step, self.nstep - 1), FRICTION_CTRL] \
+            if self.normal_force_from_record else self.rig.normal_force_N
         return np.array([float(position), velocity,
-                         deflection_at_rest(friction, force, self.rig.normal_force_N)])
+                         deflection_at_rest(friction, force, normal)])
 
     def segment_state(self, model: mujoco.MjModel, friction: FrictionParameters,
                       data: mujoco.MjData, step: int, mass_kg: float,
@@ -371,6 +380,12 @@ class RigReplay(SampleGrid):
         spec = rig_module.build_spec(rig, friction, self.timestep_s)
         for name in ("table_shaker", "drive_end_motion"):
             rig_module.set_plugin_config(spec, name, {"displacement_from_ctrl": "true"})
+        if self.normal_force_from_record:
+            config = {**rig_module.friction_config(rig, friction), "normal": "0.0",
+                      "normal_gain": "1.0", "normal_from_ctrl": "true"}
+            if friction.normal_force_modulation_frequency_Hz == 0:
+                config["modulation_frequency"] = repr(float(rig.vibration_frequency_Hz))
+            rig_module.set_plugin_config(spec, "friction", config)
         if self.lagged_sensor == "dynamometer":
             rig_module.set_plugin_config(spec, "dynamometer", {
                 "tendon": "drive_spring", "time_constant": repr(float(lag_s))})
@@ -392,7 +407,9 @@ class RigReplay(SampleGrid):
         place_rig(model, data, self.initial_support_position_m,
                   self.initial_support_velocity_m_per_s, self.initial_position_m, v0,
                   self.initial_drive_end_m, self.rig.drive_velocity_m_per_s)
-        contact_at_rest(model, data, friction, self.initial_friction_N, self.rig.normal_force_N)
+        normal = self.control[0, FRICTION_CTRL] if self.normal_force_from_record else \
+            self.rig.normal_force_N
+        contact_at_rest(model, data, friction, self.initial_friction_N, normal)
         return full_state(model, data)
 
 
@@ -634,6 +651,10 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
     control[:, 0], control[:, 1] = table, drive_end  # actuator order of rig.xml
     normal = dataset.normal_force_N
     normal_known = normal is not None
+    normal_from_record = "normal_force_N" in columns
+    if normal_from_record:  # the measured load at each step's middle, the friction's ctrl
+        middles = step_ends - 0.5 * timestep
+        control[:, FRICTION_CTRL] = np.interp(middles, t, np.asarray(normal, dtype=float))
     rig = RigParameters(
         mass_kg=meta.mass_kg or 1.0, drive_stiffness_N_per_m=k_d, drive_velocity_m_per_s=v_d,
         vibration_frequency_Hz=frequency or 0.0, vibration_velocity_amplitude_m_per_s=0.0,
@@ -647,7 +668,7 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
         initial_support_velocity_m_per_s=float(support_velocity[0]),
         initial_drive_end_m=drive_end0, initial_friction_N=friction0, vibrating=vibrating,
         timestep_from_record=from_record, sliding_steps_per_sample=sliding,
-        support_still=still)
+        support_still=still, normal_force_from_record=normal_from_record)
 
 
 # Stick phases (``stick_phase_steps``): between two slips (speed relative to the support above
