@@ -89,7 +89,22 @@ def test_normal_force_from_the_contact_between_two_geoms():
     assert np.isfinite(data.qpos).all()
 
 
+def test_normal_force_from_the_elements_own_ctrl_this_step():
+    # F_N = normal + gain * ctrl[the element's actuator], read in the same step (no sensor
+    # stage between): a measured load replayed step by step
+    model = _model('<config key="normal" value="5"/><config key="normal_gain" value="2"/>'
+                   '<config key="normal_from_ctrl" value="true"/>')
+    data = mujoco.MjData(model)
+    for load in (10.0, 25.0, 0.0):
+        data.ctrl[model.actuator("contact").id] = load
+        mujoco.mj_step(model, data)
+        assert data.sensor("contact_state").data[3] == pytest.approx(5 + 2 * load, rel=1e-12)
+
+
 @pytest.mark.parametrize("normal, attribute", [
+    ('<config key="normal_from_ctrl" value="true"/><config key="normal_sensor" '
+     'value="lift_force"/>', "'normal_from_ctrl' and 'normal_sensor' are both set"),
+    ('<config key="normal_from_ctrl" value="yes"/>', "normal_from_ctrl"),
     ('<config key="normal_sensor" value="no_such_sensor"/>', "normal_sensor"),
     ('<config key="contact_geom1" value="block"/>', "contact_geom"),
     ('<config key="contact_geom1" value="block"/><config key="contact_geom2" value="nowhere"/>',
