@@ -547,6 +547,11 @@ def test_a_measured_normal_load_drives_the_replayed_element() -> None:
     load = np.interp(replay.time_s[0] + replay.timestep_s * (np.arange(replay.nstep) + 0.5),
                      record.time_s, record.columns["normal_force_N"])
     np.testing.assert_allclose(replay.control[:, 3], load)
+    # the same load at the half steps' middles (held beyond the first and the last middle)
+    half = replay.halved()
+    middles = half.time_s[0] + half.timestep_s * (np.arange(half.nstep) + 0.5)
+    np.testing.assert_allclose(half.control[1:-2, 3], np.interp(
+        middles[1:-2], record.time_s, record.columns["normal_force_N"]), rtol=1e-6)
     result = identify_by_simulation(record, law="dahl")
     assert result.selected == []
     fitted = result.final.model.friction_parameters(result.final.values)

@@ -89,6 +89,26 @@ def test_normal_force_from_the_contact_between_two_geoms():
     assert np.isfinite(data.qpos).all()
 
 
+def test_normal_force_from_the_elements_own_ctrl_with_another_actuator_first():
+    # the element reads ctrl[its actuator id], not of its plugin instance or of actuator 0
+    scene = SCENE.replace('<plugin name="contact" joint="slide_x" instance="contact" '
+                          'actdim="1"/>\n    <motor name="lift" joint="lift_z"/>',
+                          '<motor name="lift" joint="lift_z" ctrlrange="-50 50"/>\n    '
+                          '<plugin name="contact" joint="slide_x" instance="contact" '
+                          'actdim="1" ctrlrange="0 30"/>')
+    assert scene != SCENE
+    model = mujoco.MjModel.from_xml_string(scene.format(
+        normal='<config key="normal_from_ctrl" value="true"/>', mass=BLOCK_KG))
+    data = mujoco.MjData(model)
+    assert model.actuator("contact").id == 1
+    data.ctrl[:] = [7.0, 12.0]
+    mujoco.mj_step(model, data)
+    assert data.sensor("contact_state").data[3] == pytest.approx(12.0, rel=1e-12)
+    data.ctrl[1] = 100.0  # past its ctrlrange: held at 30, as MuJoCo holds a ctrl
+    mujoco.mj_step(model, data)
+    assert data.sensor("contact_state").data[3] == pytest.approx(30.0, rel=1e-12)
+
+
 def test_normal_force_from_the_elements_own_ctrl_this_step():
     # F_N = normal + gain * ctrl[the element's actuator], read in the same step (no sensor
     # stage between): a measured load replayed step by step

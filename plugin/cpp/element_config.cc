@@ -284,7 +284,13 @@ double NormalLoad::Value(const mjModel* m, const mjData* d, const mjtNum* state)
   double value = normal;
   if (sensor >= 0) value += gain * d->sensordata[m->sensor_adr[sensor] + component];
   if (geom1 >= 0) value += gain * state[0];
-  if (ctrl >= 0) value += gain * d->ctrl[ctrl];  // this step's: ctrl is set before the step
+  if (ctrl >= 0) {  // this step's: ctrl is set before the step (within ctrlrange, as MuJoCo's)
+    double u = d->ctrl[ctrl];
+    if (m->actuator_ctrllimited[ctrl]) {
+      u = std::min(std::max(u, m->actuator_ctrlrange[2 * ctrl]), m->actuator_ctrlrange[2 * ctrl + 1]);
+    }
+    value += gain * u;
+  }
   return value;
 }
 

@@ -180,6 +180,12 @@ class MachineScene:
                              "a named vibrofriction.friction instance (declared in <extension> "
                              "and referenced with instance=\"...\")")
         config = dict(declared.config)
+        if config.get("normal_from_ctrl", "").strip() == "true":
+            raise InputError(f"model {where}: the friction element takes its normal load from "
+                             "its ctrl (normal_from_ctrl), which a machine record cannot drive "
+                             "(its columns map to ctrl only through the model's "
+                             "vibrofriction:input texts); give it a constant normal or a "
+                             "normal_sensor")
         return cls(path=Path(path).resolve(), name=name or Path(path).stem, body=body,
                    joint=joint, controller=controller, controller_actuator=controller_actuator,
                    controller_input=controller_input, inputs=inputs, outputs=outputs,

@@ -361,6 +361,14 @@ class RigReplay(SampleGrid):
         out = np.empty((2 * len(c), c.shape[1]))
         out[0::2] = 0.5 * (previous + c)
         out[1::2] = c
+        if self.normal_force_from_record:
+            # the load is each step's middle value: the half steps' middles lie a quarter
+            # step either side of it (linear between the middles, held at the first)
+            load = c[:, FRICTION_CTRL]
+            before = np.concatenate([load[:1], load[:-1]])
+            after = np.concatenate([load[1:], load[-1:]])
+            out[0::2, FRICTION_CTRL] = 0.75 * load + 0.25 * before
+            out[1::2, FRICTION_CTRL] = 0.75 * load + 0.25 * after
         sliding = self.sliding_steps_per_sample
         half = replace(self, substeps=2 * self.substeps, timestep_s=self.timestep_s / 2,
                        sliding_steps_per_sample=2 * sliding if sliding else None, control=out)
@@ -381,11 +389,9 @@ class RigReplay(SampleGrid):
         for name in ("table_shaker", "drive_end_motion"):
             rig_module.set_plugin_config(spec, name, {"displacement_from_ctrl": "true"})
         if self.normal_force_from_record:
-            config = {**rig_module.friction_config(rig, friction), "normal": "0.0",
-                      "normal_gain": "1.0", "normal_from_ctrl": "true"}
-            if friction.normal_force_modulation_frequency_Hz == 0:
-                config["modulation_frequency"] = repr(float(rig.vibration_frequency_Hz))
-            rig_module.set_plugin_config(spec, "friction", config)
+            rig_module.set_plugin_config(spec, "friction", {
+                **rig_module.friction_config(rig, friction), "normal": "0.0",
+                "normal_gain": "1.0", "normal_from_ctrl": "true"})
         if self.lagged_sensor == "dynamometer":
             rig_module.set_plugin_config(spec, "dynamometer", {
                 "tendon": "drive_spring", "time_constant": repr(float(lag_s))})
@@ -394,7 +400,11 @@ class RigReplay(SampleGrid):
             for sensor in list(spec.sensors):
                 if sensor.name not in keep:
                     spec.delete(sensor)
-        return spec.compile()
+        model = spec.compile()
+        if model.actuator("friction").id != FRICTION_CTRL:  # (the scenes' actuator order)
+            raise RuntimeError(f"the rig's friction actuator is actuator "
+                               f"{model.actuator('friction').id}, not {FRICTION_CTRL}")
+        return model
 
     def initial_state(self, model: mujoco.MjModel, friction: FrictionParameters,
                       data: mujoco.MjData, initial_velocity_m_per_s: float | None = None

@@ -76,7 +76,11 @@ def report_json(result: SimIdentification) -> dict[str, Any]:
         "residual_peaks_Hz": list(result.residual_peaks_Hz),
         "skipped": dict(result.skipped),
         "settings": {**result.settings, "simulations": result.simulations,
-                     "seconds": round(result.seconds, 3)},
+                     "seconds": round(result.seconds, 3),
+                     # F_N was the record's normal_force_N column, step by step (the
+                     # parameters' normal_force_N and the set line hold its median)
+                     "normal_force_from_record": bool(getattr(
+                         result.train, "normal_force_from_record", False))},
         "set": set_line(result),
         "initial_state": initial_state(result),
         **({"closed_loop": {"model": result.train.scene.name,
@@ -189,8 +193,11 @@ def report_markdown(result: SimIdentification) -> str:
                        for c in replay.channels),
              "- held-out records: " + (", ".join(f"`{v.name}`" for v in r.validation) or
                                        "none"),
-             "- normal force: " + (f"{replay.rig.normal_force_N:.6g} N" if
-                                   replay.normal_force_known else
+             "- normal force: " + (
+                 f"the record's normal_force_N column, step by step (median "
+                 f"{replay.rig.normal_force_N:.6g} N, which the simulate line below holds "
+                 "constant)" if getattr(replay, "normal_force_from_record", False) else
+                 f"{replay.rig.normal_force_N:.6g} N" if replay.normal_force_known else
                                    "not given: F_N = 1 N, so friction_coefficient is the "
                                    "friction level in N"),
              "- mass: " + ("identified" if r.settings.get("fit_mass") else
