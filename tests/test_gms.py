@@ -367,3 +367,24 @@ def test_set_takes_a_list_and_the_default_gms_is_the_scene():
 def test_the_planar_kinematic_driver_refuses_gms_by_name():
     with pytest.raises(ParameterError, match="law gms has no kinematic planar driver"):
         planar.run_planar_law(GMS, np.arange(3) * 1e-3, np.zeros((3, 2)))
+
+
+def test_gms_with_a_viscous_term_in_the_line_and_the_plane():
+    """The viscous term at the end-of-step velocity (GmsImplicitForce): the 1D rig against the
+    reference (which integrates s2 v_r exactly), and the planar rig along x equal to the 1D."""
+    rig = RigParameters(vibration_velocity_amplitude_m_per_s=1.5e-3)
+    friction = dataclasses.replace(GMS, viscous_N_s_per_m=300.0)
+    dt = rig_module.recommended_timestep(rig)
+    times, forces = _simulate_rig(rig, friction, 0.03)
+    ref = reference.simulate_reference(rig, friction, 0.03, sample_dt_s=1e-5)
+    expected = np.interp(times, ref.time_s, ref.drive_force_N)
+    assert np.max(np.abs(forces - expected)) < 2e-3 * LEVEL_N
+    line = rig_module.build_model(rig, friction, dt)
+    plane = planar.build_rig_spec(rig, friction, timestep_s=dt).compile()
+    line_data, plane_data = mujoco.MjData(line), mujoco.MjData(plane)
+    for _ in range(3000):
+        mujoco.mj_step(line, line_data)
+        mujoco.mj_step(plane, plane_data)
+    assert -plane_data.actuator("friction_x").force[0] == pytest.approx(
+        -line_data.actuator("friction").force[0], rel=1e-9, abs=1e-9 * LEVEL_N)
+    assert plane_data.actuator("friction_y").force[0] == pytest.approx(0.0, abs=1e-12)
