@@ -317,11 +317,9 @@ double FrictionElement::Deflection(const mjData* d) const {
   if (!HasDeflection(p.law)) return 0.0;
   const mjtNum* z = d->act + config_->act_address;
   if (p.law != Law::kGms) return z[0];
-  // gms: the one deflection with the same elastic force over the total stiffness
-  double force = 0.0, stiffness = 0.0;
-  GmsElementForce<1>(p, z, &force);
-  for (int i = 0; i < p.gms.count; ++i) stiffness += p.gms.stiffness[i];
-  return force / stiffness;
+  double deflection;
+  GmsEquivalentDeflection<1>(p, z, &deflection);
+  return deflection;
 }
 
 int FrictionElement::StateSize(const mjModel* m, int instance) {

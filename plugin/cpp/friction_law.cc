@@ -859,6 +859,14 @@ void GmsElementForce(const LawParameters& p, const double* z, double force[D]) {
 }
 
 template <int D>
+void GmsEquivalentDeflection(const LawParameters& p, const double* z, double deflection[D]) {
+  double stiffness = 0.0;
+  for (int i = 0; i < p.gms.count; ++i) stiffness += p.gms.stiffness[i];
+  GmsElementForce<D>(p, z, deflection);
+  for (int j = 0; j < D; ++j) deflection[j] /= stiffness;
+}
+
+template <int D>
 void GmsImplicitForce(const LawParameters& p, const double* z, const double v[D],
                       const double v_free[D], const double B[D * D], double force[D]) {
   double rhs[D];
@@ -885,6 +893,8 @@ template void AdvanceGms<2>(const LawParameters&, const LawInput&, const double*
                             double*, double);
 template void GmsElementForce<1>(const LawParameters&, const double*, double*);
 template void GmsElementForce<2>(const LawParameters&, const double*, double*);
+template void GmsEquivalentDeflection<1>(const LawParameters&, const double*, double*);
+template void GmsEquivalentDeflection<2>(const LawParameters&, const double*, double*);
 template void GmsImplicitForce<1>(const LawParameters&, const double*, const double*,
                                   const double*, const double*, double*);
 template void GmsImplicitForce<2>(const LawParameters&, const double*, const double*,

@@ -302,6 +302,11 @@ void AdvanceGms(const LawParameters& p, const LawInput& in, const double v[D], d
 template <int D>
 void GmsElementForce(const LawParameters& p, const double* z, double force[D]);
 
+// The one deflection with the elements' elastic force over their total stiffness,
+// sum k_i z_i / sum k_i (D components, m): what the state sensors report as z.
+template <int D>
+void GmsEquivalentDeflection(const LawParameters& p, const double* z, double deflection[D]);
+
 // The viscous term at the trapezoidal mean of the step's start and end velocities with the end
 // velocity responding to the force, v_next = v_free - B F (B = dt J M^-1 J', D x D): the
 // gms counterpart of ImplicitStateForce / PlanarImplicitStateForce. Returns F (D components)

@@ -244,13 +244,9 @@ void PlanarFriction::WriteSensor(const mjModel* m, mjData* d, int instance, mjtN
   sensor[0] = -d->actuator_force[out[0]];
   sensor[1] = -d->actuator_force[out[1]];
   if (p.law == Law::kGms) {
-    // the one deflection with the same elastic force over the total stiffness
-    double z[2 * kMaxGmsElements], force[2], stiffness = 0.0;
+    double z[2 * kMaxGmsElements];
     GatherGms(d, z);
-    GmsElementForce<2>(p, z, force);
-    for (int i = 0; i < p.gms.count; ++i) stiffness += p.gms.stiffness[i];
-    sensor[2] = force[0] / stiffness;
-    sensor[3] = force[1] / stiffness;
+    GmsEquivalentDeflection<2>(p, z, sensor + 2);
   } else {
     const bool state = HasDeflection(p.law);
     sensor[2] = state ? d->act[config_->act_address[0]] : 0.0;

@@ -27,13 +27,14 @@ from dataclasses import dataclass, fields, replace
 from typing import Any, Mapping
 
 from .errors import InputError
-from .vocabulary import (ALL_LAWS, DEFAULTS, MAX_GMS_ELEMENTS, MAX_MAP_KNOTS,
+from .vocabulary import (ALL_LAWS, DEFAULTS, FRICTION_TERMS, MAX_GMS_ELEMENTS, MAX_MAP_KNOTS,
                          PAPER_CONTACT_STIFFNESS_N_PER_M, PAPER_LAWS)
 from .vocabulary import LIMITS as _FRICTION_LIMITS
 
 # The list-valued fields (tuples; --set takes "a,b,c" or "a b c")
-_LIST_FIELDS = ("gms_stiffness_N_per_m", "gms_weights", "position_map_knots_m",
-                "position_map_factors", "velocity_map_knots_m_per_s", "velocity_map_factors")
+_LIST_FIELDS = tuple(t.name for t in FRICTION_TERMS if t.is_list)
+# The fields only law gms uses (empty or idle for the other laws)
+_GMS_FIELDS = tuple(t.name for t in FRICTION_TERMS if t.laws == ("gms",))
 
 # The laws the study and identification run (the paper's four); ALL_LAWS adds gms, which the
 # elements simulate. ALL_LAWS is the C++ Law enum's order: ALL_LAWS.index(law) is its value.
@@ -186,10 +187,9 @@ class FrictionParameters:
     def law_values(self) -> dict[str, Any]:
         """Every field but ``law`` (the reports' parameter blocks), law gms's element fields
         only for law gms and a map only when it is given (lists as tuples)."""
-        gms_only = ("gms_stiffness_N_per_m", "gms_weights", "gms_relaxation_time_s")
         map_off = {"position_map_period_m": not self.position_map_knots_m}
         return {k: v for k, v in dataclasses.asdict(self).items()
-                if k != "law" and (self.law == "gms" or k not in gms_only)
+                if k != "law" and (self.law == "gms" or k not in _GMS_FIELDS)
                 and v != () and not map_off.get(k, False)}
 
     @property

@@ -524,8 +524,8 @@ def _simulate_gms(drive: _Rig, contact: _Contact, friction: FrictionParameters,
     """Integrate between events (an element reaching its level, v_r = 0 while one slips)."""
     k = np.array(friction.gms_stiffness_N_per_m)
     n = len(k)
-    weights = np.array(friction.gms_weights or [1.0 / n] * n)
-    weights = weights / weights.sum()
+    weights = np.array(friction.gms_element_weights)
+    weights = weights / weights.sum()  # (exactly 1 in all, as the plugin reads them)
     # the slip deflections in either direction (asymmetry gives each direction its level)
     limit = {s: weights * contact.coulomb_level(0.0, 0.0, s) / k for s in (1, -1)}
     rtol, atol = tolerances
