@@ -107,6 +107,34 @@ def test_normal_force_from_the_elements_own_ctrl_with_another_actuator_first():
     data.ctrl[1] = 100.0  # past its ctrlrange: held at 30, as MuJoCo holds a ctrl
     mujoco.mj_step(model, data)
     assert data.sensor("contact_state").data[3] == pytest.approx(30.0, rel=1e-12)
+    model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CLAMPCTRL  # MuJoCo clamps no ctrl
+    mujoco.mj_step(model, data)
+    assert data.sensor("contact_state").data[3] == pytest.approx(100.0, rel=1e-12)
+
+
+def test_normal_force_from_ctrl_after_an_actuator_of_several_controls():
+    # an orientation servo (4 controls, a quaternion) first: the element's ctrl is at its
+    # actuator's ctrladr (4), not at its actuator id (1)
+    scene = SCENE.format(normal='<config key="normal_from_ctrl" value="true"/>',
+                         mass=BLOCK_KG).replace(
+        '<worldbody>', '<worldbody><body name="wrist" pos="1 0 1"><joint name="ball" '
+        'type="ball"/><geom size=".05" contype="0" conaffinity="0"/></body>').replace(
+        '<actuator>', '<actuator><general name="servo" joint="ball" gaintype="so3" '
+        'input="quat" biastype="so3" biasprm="0 -1 -1"/>')
+    vibrofriction.load()
+    try:
+        model = mujoco.MjModel.from_xml_string(scene)
+    except ValueError as error:
+        if "gaintype" in str(error) or "input" in str(error):
+            pytest.skip(f"this MuJoCo has no actuator with several controls ({error})")
+        raise
+    element = model.actuator("contact").id
+    assert model.actuator_ctrladr[element] != element  # the case this test is about
+    data = mujoco.MjData(model)
+    data.ctrl[:] = 99.0
+    data.ctrl[model.actuator_ctrladr[element]] = 12.0
+    mujoco.mj_step(model, data)
+    assert data.sensor("contact_state").data[3] == pytest.approx(12.0, rel=1e-12)
 
 
 def test_normal_force_from_the_elements_own_ctrl_this_step():

@@ -286,7 +286,7 @@ double NormalLoad::Value(const mjModel* m, const mjData* d, const mjtNum* state)
   if (geom1 >= 0) value += gain * state[0];
   if (ctrl >= 0) {  // this step's: ctrl is set before the step (within ctrlrange, as MuJoCo's)
     double u = d->ctrl[ctrl];
-    if (m->actuator_ctrllimited[ctrl]) {
+    if (m->actuator_ctrllimited[ctrl] && !(m->opt.disableflags & mjDSBL_CLAMPCTRL)) {
       u = std::min(std::max(u, m->actuator_ctrlrange[2 * ctrl]), m->actuator_ctrlrange[2 * ctrl + 1]);
     }
     value += gain * u;

@@ -83,7 +83,7 @@ struct NormalLoad {
   int component = 0;     // component of that sensor
   int geom1 = -1;        // contact normal force between geom1 and geom2, -1: none
   int geom2 = -1;
-  int ctrl = -1;         // the ctrl of this actuator (normal_from_ctrl: the element's own), -1: none
+  int ctrl = -1;         // this ctrl index (normal_from_ctrl: the element's own actuator's), -1: none
 
   // Reads normal, normal_gain, normal_sensor, normal_component, contact_geom1, contact_geom2.
   static bool FromModel(const mjModel* m, int instance, const char* plugin, ReadScope scope,

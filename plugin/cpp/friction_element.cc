@@ -170,7 +170,7 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
     }
     // F_N = normal + normal_gain * ctrl of the element's own actuator (a measured load
     // replayed step by step: no sensor stage between, so no step of delay)
-    c.normal.ctrl = c.actuator;
+    c.normal.ctrl = m->actuator_ctrladr[c.actuator];
   }
   if (scope == ReadScope::kAttributes) return true;  // the actuator's fields are not set yet
   if (m->actuator_actnum[c.actuator] < 1) {
@@ -196,7 +196,7 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
   for (int j = instance + 1; j < m->nplugin; ++j) {
     const mjpPlugin* other = mjp_getPluginAtSlot(m->plugin[j]);
     if (!other || !other->name || std::strcmp(other->name, "vibrofriction.motion") != 0) continue;
-    for (int a = 0; a < m->nu; ++a) {
+    for (int a = 0; a < m->nactuator; ++a) {
       if (m->actuator_plugin[a] != j || !SharesTree(m, a, c.actuator)) continue;
       const char* name = mj_id2name(m, mjOBJ_PLUGIN, j);
       ConfigError("%s: a vibrofriction.motion plugin (%s%s%s) on the same body tree is computed "

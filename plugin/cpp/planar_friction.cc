@@ -45,7 +45,7 @@ bool PlanarTransmission::FromModel(const mjModel* m, int instance, const char* p
                                    bool need_state, PlanarTransmission* out) {
   PlanarTransmission t;
   int count = 0;
-  for (int i = 0; i < m->nu; ++i) {
+  for (int i = 0; i < m->nactuator; ++i) {
     if (m->actuator_plugin[i] != instance) continue;
     if (count < 2) t.actuator[count] = i;
     ++count;

@@ -101,7 +101,7 @@ void ReportConfigError(const mjModel* m, int instance, bool fatal) {
   };
   const char* instance_name = mj_id2name(m, mjOBJ_PLUGIN, instance);
   if (instance_name && instance_name[0]) add("instance", instance_name, instance);
-  for (int i = 0; i < m->nu; ++i) {
+  for (int i = 0; i < m->nactuator; ++i) {
     if (m->actuator_plugin[i] == instance) add("actuator", mj_id2name(m, mjOBJ_ACTUATOR, i), i);
   }
   for (int i = 0; i < m->nsensor; ++i) {
@@ -192,7 +192,7 @@ std::string ConfigFingerprint(const mjModel* m, int instance) {
 
 int FindActuator(const mjModel* m, int instance, const char* plugin) {
   int found = -1;
-  for (int i = 0; i < m->nu; ++i) {
+  for (int i = 0; i < m->nactuator; ++i) {
     if (m->actuator_plugin[i] != instance) continue;
     if (found != -1) {
       ConfigError("%s: one plugin instance backs several actuators; give each actuator its "

@@ -80,7 +80,7 @@ void SampledPd::Sampled(const mjModel* m, const mjData* d, const mjtNum* state, 
                         mjtNum* next) const {
   mju_copy(next, state, kStateSize);
   const int a = config_->actuator;
-  const double q = d->actuator_length[a];
+  const double q = d->actuator_length[m->actuator_outadr[a]];
   if (next[kStarted] == 0) {  // at rest before the first sample
     next[kLastPosition] = next[kLastFiltered] = q;
     next[kNextSample] = time;
@@ -93,7 +93,7 @@ void SampledPd::Sampled(const mjModel* m, const mjData* d, const mjtNum* state, 
   const double filtered = 0.5 * (q + next[kLastPosition]);
   const double velocity = (filtered - next[kLastFiltered]) / T;
   const double u = config_->velocity_gain *
-                   (config_->position_gain * (d->ctrl[a] - q) - velocity);
+                   (config_->position_gain * (d->ctrl[m->actuator_ctrladr[a]] - q) - velocity);
   if (config_->command_delay == 0) {
     next[kHeld] = u;
   } else {
@@ -109,12 +109,12 @@ void SampledPd::Compute(const mjModel* m, mjData* d, int instance) {
   const int a = config_->actuator;
   computed_ = false;
   if (!config_.Refresh(m, instance)) {
-    d->actuator_force[a] = 0;
+    d->actuator_force[m->actuator_outadr[a]] = 0;
     return;
   }
   Sampled(m, d, d->plugin_state + m->plugin_stateadr[instance], d->time, next_);
   computed_ = true;
-  d->actuator_force[a] = Force(next_[kHeld]);
+  d->actuator_force[m->actuator_outadr[a]] = Force(next_[kHeld]);
 }
 
 void SampledPd::Advance(const mjModel* m, mjData* d, int instance) {

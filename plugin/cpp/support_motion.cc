@@ -107,9 +107,10 @@ void SupportMotion::Compute(const mjModel* m, mjData* d, int instance) {
   // s_{n+1} = s_n + dt v_{n+1} then lands on it (no drift in position or phase).
   double target;
   if (config_->displacement_from_ctrl) {  // a recorded motion replayed step by step
-    target = m->actuator_length0[out] + d->ctrl[config_->actuator];
+    target = m->actuator_length0[out] + d->ctrl[m->actuator_ctrladr[config_->actuator]];
   } else {
-    const double scale = config_->use_ctrl ? d->ctrl[config_->actuator] : 1.0;
+    const double scale =
+        config_->use_ctrl ? d->ctrl[m->actuator_ctrladr[config_->actuator]] : 1.0;
     target = m->actuator_length0[out] + config_->Displacement(d->time + dt, scale);
   }
   const double velocity_target = (target - d->actuator_length[out]) / dt;

@@ -401,9 +401,10 @@ class RigReplay(SampleGrid):
                 if sensor.name not in keep:
                     spec.delete(sensor)
         model = spec.compile()
-        if model.actuator("friction").id != FRICTION_CTRL:  # (the scenes' actuator order)
-            raise RuntimeError(f"the rig's friction actuator is actuator "
-                               f"{model.actuator('friction').id}, not {FRICTION_CTRL}")
+        ctrl = int(model.actuator_ctrladr[model.actuator("friction").id])
+        if ctrl != FRICTION_CTRL:  # (the scenes' actuator order)
+            raise RuntimeError(f"the rig's friction actuator's ctrl is {ctrl}, not "
+                               f"{FRICTION_CTRL}")
         return model
 
     def initial_state(self, model: mujoco.MjModel, friction: FrictionParameters,
