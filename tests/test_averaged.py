@@ -199,9 +199,10 @@ def test_a_table_number_that_is_not_a_plain_decimal_is_named(dahl_table, bad, na
         spec.compile()
 
 
-def _synthetic_table_config(scale_middle: float = 1.0) -> dict[str, str]:
+def _synthetic_table_config(scale_middle: float = 1.0, checksum: bool = False) -> dict[str, str]:
     """An averaged config with fixed-width numbers: scaling the middle of the table keeps the
-    config's length and its first and last bytes."""
+    config's length and its first and last bytes (and, with its checksum, the checksum's
+    length: the element then compares the bytes around the table each step, not the table)."""
     xi = np.array([0.0, 0.25, 0.5, 1.0, 2.0, 4.0])
     angle = np.array([0.0, math.pi / 2, math.pi])
     level = xi / (xi + 0.3)  # along the velocity, rising to 1 past xi ~ 1
@@ -211,9 +212,12 @@ def _synthetic_table_config(scale_middle: float = 1.0) -> dict[str, str]:
     along.ravel()[middle] *= scale_middle
     across.ravel()[middle] *= scale_middle
     fixed = lambda values: " ".join(f"{v:.6f}" for v in values.ravel())  # noqa: E731
-    return {"mu": "0.3", "normal": repr(NORMAL_N), "velocity_amplitude": "0.05",
-            "table_xi": fixed(xi), "table_angle": repr(0.0) + " " + repr(math.pi / 2) + " "
-            + repr(math.pi), "table_along": fixed(along), "table_across": fixed(across)}
+    config = {"mu": "0.3", "normal": repr(NORMAL_N), "velocity_amplitude": "0.05",
+              "table_xi": fixed(xi), "table_angle": repr(0.0) + " " + repr(math.pi / 2) + " "
+              + repr(math.pi), "table_along": fixed(along), "table_across": fixed(across)}
+    if checksum:
+        config["table_checksum"] = averaged.table_checksum(*(config[key] for key in TABLE_KEYS))
+    return config
 
 
 def _spec_with(config: dict[str, str]) -> mujoco.MjSpec:
@@ -250,18 +254,50 @@ def _run_from(model: mujoco.MjModel, state: np.ndarray) -> np.ndarray:
     return _forces(model, data)
 
 
-def test_two_tables_differ_only_in_the_middle_at_the_same_length():
-    bytes_a = bytes(_config_bytes(_spec_with(_synthetic_table_config()).compile()))
-    bytes_b = bytes(_config_bytes(_spec_with(_synthetic_table_config(0.5)).compile()))
+TABLE_KEYS = ("table_xi", "table_angle", "table_along", "table_across")
+
+
+@pytest.mark.parametrize("checksum", [False, True])
+def test_two_tables_differ_only_in_the_middle_at_the_same_length(checksum):
+    bytes_a = bytes(_config_bytes(_spec_with(_synthetic_table_config(1.0, checksum)).compile()))
+    bytes_b = bytes(_config_bytes(_spec_with(_synthetic_table_config(0.5, checksum)).compile()))
     assert len(bytes_a) == len(bytes_b) and bytes_a != bytes_b
-    assert bytes_a[:40] == bytes_b[:40] and bytes_a[-40:] == bytes_b[-40:]
+    assert bytes_a[:40] == bytes_b[:40]
+    if not checksum:  # with one, the checksum (16 hex digits) ends the config and differs
+        assert bytes_a[-40:] == bytes_b[-40:]
 
 
-def test_a_model_compiled_where_a_freed_one_lived_runs_its_own_table():
+@pytest.mark.parametrize("checksum, named", [
+    ("0" * 16, "'table_checksum'=\"0000000000000000\" is not the checksum of the table's values"),
+    ("xyz", "'table_checksum'=\"xyz\" is not the checksum"),
+    ("0x" + "1" * 14, "is not the checksum")])
+def test_a_table_edited_after_its_checksum_was_made_is_refused(checksum, named):
+    config = _synthetic_table_config(1.0, checksum=True)
+    assert averaged.table_checksum(*(config[key] for key in TABLE_KEYS)) == config["table_checksum"]
+    _spec_with(config).compile()  # the stated checksum is the plugin's
+    config["table_checksum"] = checksum
+    with pytest.raises(ValueError, match=named + ".*make it again with vibrofriction.averaged"
+                       ".build_table, or remove 'table_checksum'"):
+        _spec_with(config).compile()
+
+
+def test_the_tables_build_table_writes_carry_their_checksum(dahl_table):
+    config = dahl_table.config()
+    assert config["table_checksum"] == averaged.table_checksum(
+        *(config[key] for key in TABLE_KEYS))
+    edited = dict(config, table_along=config["table_along"].replace(" ", "  ", 1))
+    assert averaged.table_checksum(*(edited[key] for key in TABLE_KEYS)) == \
+        config["table_checksum"]  # the numbers, not their spelling
+
+
+@pytest.mark.parametrize("checksum", [False, True])
+def test_a_model_compiled_where_a_freed_one_lived_runs_its_own_table(checksum):
     """One MjData stepped with model A, A freed, B compiled (sometimes at A's address)
     differing only in the middle of its table at the same config length: B's table drives the
-    run (the config cache compares the whole config, not the pointer or the edges)."""
-    config_a, config_b = _synthetic_table_config(), _synthetic_table_config(0.5)
+    run (the config cache compares the whole config -- or, with a table_checksum, everything
+    but the table, the checksum included -- not the pointer or the edges)."""
+    config_a = _synthetic_table_config(1.0, checksum)
+    config_b = _synthetic_table_config(0.5, checksum)
     base = _spec_with(config_a).compile()  # the MjData's own model (MjData keeps it alive)
     rounds, reused = 5, 0
     for _ in range(rounds):
@@ -279,16 +315,17 @@ def test_a_model_compiled_where_a_freed_one_lived_runs_its_own_table():
     print(f"model B at freed model A's address in {reused} of {rounds} rounds")
 
 
-def test_a_table_changed_in_place_at_the_same_address_is_read_again():
+@pytest.mark.parametrize("checksum", [False, True])
+def test_a_table_changed_in_place_at_the_same_address_is_read_again(checksum):
     """The same-address case made certain: A's config bytes are overwritten with B's (same
     length, same edges) in the model the MjData was just stepped with. A cache keyed on the
     model pointer, or on a spot check of the edges, would keep running A's table."""
-    model = _spec_with(_synthetic_table_config()).compile()
+    model = _spec_with(_synthetic_table_config(1.0, checksum)).compile()
     data = mujoco.MjData(model)
     _forces(model, data, 100)
     state = _state(model, data)
     with_a = _run_from(model, state)
-    model_b = _spec_with(_synthetic_table_config(0.5)).compile()
+    model_b = _spec_with(_synthetic_table_config(0.5, checksum)).compile()
     _config_bytes(model)[:] = _config_bytes(model_b)
     expected = _run_from(model_b, state)
     assert not np.array_equal(with_a, expected)

@@ -36,9 +36,9 @@ OWN_KEYS = {
     "planar": {"law", *NORMAL_LOAD_KEYS},
     "contact": {"law", "support", "torsion_radius"},  # the load: MuJoCo's contacts
     "averaged": {*NORMAL_LOAD_KEYS, "velocity_amplitude", "axis_angle", "use_ctrl", "table_xi",
-                 "table_angle", "table_along", "table_across"},
+                 "table_angle", "table_along", "table_across", "table_checksum"},
     "contact_averaged": {"support", "torsion_radius", "velocity_amplitude", "axis", "table_xi",
-                         "table_angle", "table_along", "table_across"},
+                         "table_angle", "table_along", "table_across", "table_checksum"},
     "contact_feeder": {"support", "torsion_radius", "axis", "map_velocity", "map_force"},
 }
 TABLE_KEYS = {term.mjcf_key for term in FRICTION_TERMS}

@@ -1,8 +1,11 @@
 #include "averaged_friction.h"
 
 #include <algorithm>
+#include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <utility>
 
@@ -20,7 +23,7 @@ constexpr char kUseCtrl[] = "use_ctrl";
 const char* const kAttributes[] = {
     kMu, kNormal, kNormalSensor, kNormalGain, kNormalComponent, kContactGeom1, kContactGeom2,
     kViscous, kStaticRatio, kStribeckVelocity, kVelocityAmplitude, kAxisAngle, kUseCtrl,
-    kTableXi, kTableAngle, kTableAlong, kTableAcross};
+    kTableXi, kTableAngle, kTableAlong, kTableAcross, kTableChecksum};
 
 constexpr char kPlugin[] = "vibrofriction.averaged";
 
@@ -137,14 +140,14 @@ template <int N>
 void SolveAveragedEndVelocity(const AveragedTable& table, const LawParameters& law,
                               const double axis[N], double normal_force,
                               double velocity_amplitude, const double B[N * N],
-                              const double v_free[N], double u[N]) {
+                              const double v_free[N], double u[N], double force[N]) {
   auto norm = [](const double x[N]) {
     double sum = 0.0;
     for (int i = 0; i < N; ++i) sum += x[i] * x[i];
     return std::sqrt(sum);
   };
-  auto residual = [&](const double x[N], double r[N]) {  // R(u) = u + B F(u) - v_free
-    double f[N];
+  // R(u) = u + B F(u) - v_free, with F(u) in f
+  auto residual = [&](const double x[N], double r[N], double f[N]) {
     AveragedVectorForce<N>(table, law, axis, x, normal_force, velocity_amplitude, f);
     for (int i = 0; i < N; ++i) {
       r[i] = x[i] - v_free[i];
@@ -154,12 +157,12 @@ void SolveAveragedEndVelocity(const AveragedTable& table, const LawParameters& l
   const double scale = velocity_amplitude + norm(v_free);
   const double tolerance = 1e-10 * scale;
   double r[N];
-  residual(u, r);
+  residual(u, r, force);
   double r_norm = norm(r);
   for (int iter = 0; iter < 50 && r_norm > tolerance; ++iter) {
-    double J[N * N], force[N], dF[N * N];
+    double J[N * N], f_at_u[N], dF[N * N];
     if (AveragedVectorForceJacobian<N>(table, law, axis, u, normal_force, velocity_amplitude,
-                                       force, dF)) {
+                                       f_at_u, dF)) {
       for (int i = 0; i < N; ++i) {  // dR/du = I + B dF/du
         for (int j = 0; j < N; ++j) {
           double sum = (i == j);
@@ -170,10 +173,10 @@ void SolveAveragedEndVelocity(const AveragedTable& table, const LawParameters& l
     } else {  // at rest: a forward difference
       const double h = 1e-7 * (velocity_amplitude + norm(u));
       for (int col = 0; col < N; ++col) {
-        double up[N], rp[N];
+        double up[N], rp[N], fp[N];
         for (int i = 0; i < N; ++i) up[i] = u[i];
         up[col] += h;
-        residual(up, rp);
+        residual(up, rp, fp);
         for (int i = 0; i < N; ++i) J[N * i + col] = (rp[i] - r[i]) / h;
       }
     }
@@ -182,10 +185,10 @@ void SolveAveragedEndVelocity(const AveragedTable& table, const LawParameters& l
     if (!SolveLinear<N>(J, minus_r, 1e-300, step)) {
       for (int i = 0; i < N; ++i) step[i] = minus_r[i];
     }
-    double alpha = 1.0, trial[N], r_trial[N], norm_trial = r_norm;
+    double alpha = 1.0, trial[N], r_trial[N], f_trial[N], norm_trial = r_norm;
     for (int k = 0; k < 30; ++k, alpha *= 0.5) {
       for (int i = 0; i < N; ++i) trial[i] = u[i] + alpha * step[i];
-      residual(trial, r_trial);
+      residual(trial, r_trial, f_trial);
       norm_trial = norm(r_trial);
       if (norm_trial < (1 - 1e-4 * alpha) * r_norm) break;
     }
@@ -193,6 +196,7 @@ void SolveAveragedEndVelocity(const AveragedTable& table, const LawParameters& l
     for (int i = 0; i < N; ++i) {
       u[i] = trial[i];
       r[i] = r_trial[i];
+      force[i] = f_trial[i];
     }
     r_norm = norm_trial;
     if (alpha * norm(step) <= 1e-15 * scale) break;
@@ -211,10 +215,10 @@ template bool AveragedVectorForceJacobian<3>(const AveragedTable&, const LawPara
                                              double*, double*);
 template void SolveAveragedEndVelocity<2>(const AveragedTable&, const LawParameters&,
                                           const double*, double, double, const double*,
-                                          const double*, double*);
+                                          const double*, double*, double*);
 template void SolveAveragedEndVelocity<3>(const AveragedTable&, const LawParameters&,
                                           const double*, double, double, const double*,
-                                          const double*, double*);
+                                          const double*, double*, double*);
 
 void AveragedTable::Evaluate(double xi_value, double angle_value, double* f_along,
                              double* f_across, double slopes[4]) const {
@@ -285,6 +289,23 @@ bool ReadAveragedTable(const mjModel* m, int instance, const char* plugin,
       }
     }
   }
+  // after the checks above: a table that is wrong in itself is named as such
+  const char* checksum = mj_getPluginConfig(m, instance, kTableChecksum);
+  if (checksum && checksum[0]) {
+    char* end = nullptr;
+    errno = 0;
+    const unsigned long long stated = std::strtoull(checksum, &end, 16);
+    const bool hex16 = std::strlen(checksum) == 16 && *end == '\0' && errno == 0 &&
+                       std::isxdigit(static_cast<unsigned char>(checksum[0]));
+    const std::uint64_t actual = NumberListChecksum({&t.xi, &t.angle, &t.along, &t.across});
+    if (!hex16 || stated != actual) {
+      ConfigError("%s: attribute '%s'=\"%.40s\" is not the checksum of the table's values "
+                  "(%016llx): the table was edited after it was made; make it again with "
+                  "vibrofriction.averaged.build_table, or remove '%s'", plugin, kTableChecksum,
+                  checksum, static_cast<unsigned long long>(actual), kTableChecksum);
+      return false;
+    }
+  }
   return true;
 }
 
@@ -344,13 +365,6 @@ bool AveragedConfig::FromModel(const mjModel* m, int instance, AveragedConfig* c
   return true;
 }
 
-void AveragedFriction::Force(const double u[2], double normal_force, double velocity_amplitude,
-                             double force[2]) const {
-  const double axis[2] = {config_->axis_cos, config_->axis_sin};
-  AveragedVectorForce<2>(config_->table, config_->coulomb, axis, u, normal_force,
-                         velocity_amplitude, force);
-}
-
 void AveragedFriction::Compute(const mjModel* m, mjData* d, int instance) {
   const int* out = config_->transmission.output;
   if (!config_.Refresh(m, instance)) {
@@ -374,8 +388,7 @@ void AveragedFriction::Compute(const mjModel* m, mjData* d, int instance) {
     const double axis[2] = {config_->axis_cos, config_->axis_sin};
     double u[2] = {v[0], v[1]};
     SolveAveragedEndVelocity<2>(config_->table, config_->coulomb, axis, in.normal_force,
-                                amplitude, response.B, response.v_free, u);
-    Force(u, in.normal_force, amplitude, force);
+                                amplitude, response.B, response.v_free, u, force);
   } else {
     PlanarStickSlipForce(config_->coulomb, in, v, response.v_free, response.B, force);
   }

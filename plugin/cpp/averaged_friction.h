@@ -83,12 +83,13 @@ bool AveragedVectorForceJacobian(const AveragedTable& table, const LawParameters
 // The end-of-step velocity u of u + B F(u) = v_free with F the averaged force (B = dt J M^-1 J',
 // row-major N x N): Newton with the table's exact Jacobian (a forward difference where it has
 // none) and backtracking on |R| (the law is monotone and Lipschitz, piecewise bilinear); u in:
-// the start, out: the solution.
+// the start, out: the solution; `force`: F(u) at the solution (the residual's own evaluation,
+// not repeated).
 template <int N>
 void SolveAveragedEndVelocity(const AveragedTable& table, const LawParameters& law,
                               const double axis[N], double normal_force,
                               double velocity_amplitude, const double B[N * N],
-                              const double v_free[N], double u[N]);
+                              const double v_free[N], double u[N], double force[N]);
 
 struct AveragedConfig {
   // mu, static_ratio, stribeck_velocity, viscous: the no-vibration law (v_a = 0, or use_ctrl
@@ -123,10 +124,6 @@ class AveragedFriction {
   // Writes kSensorDim values of this element's state to `out` (vibrofriction.*_sensor).
   void WriteSensor(const mjModel* m, mjData* d, int instance, mjtNum* out);
   void Advance(const mjModel* m, mjData* d, int instance);
-
-  // Averaged force (N) at sliding velocity u with normal load F_N and amplitude v_a > 0.
-  void Force(const double u[2], double normal_force, double velocity_amplitude,
-             double force[2]) const;
 
  private:
   CachedConfig<AveragedConfig> config_;

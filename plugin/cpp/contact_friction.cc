@@ -28,7 +28,7 @@ constexpr char kAxis[] = "axis";
 // The robot-timestep form: the table of vibrofriction.averaged over the generalized velocity.
 const char* const kAveragedAttributes[] = {
     kMu, kViscous, kStaticRatio, kStribeckVelocity, kSupport, kTorsionRadius, kVelocityAmplitude,
-    kAxis, kTableXi, kTableAngle, kTableAlong, kTableAcross};
+    kAxis, kTableXi, kTableAngle, kTableAlong, kTableAcross, kTableChecksum};
 
 constexpr char kFeederPlugin[] = "vibrofriction.contact_feeder";
 constexpr char kMapVelocity[] = "map_velocity";
@@ -449,9 +449,7 @@ void ContactFriction::ImplicitForce(const mjModel* m, mjData* d, const mjtNum* s
   } else if (vibrating) {
     double end[3] = {v[0], v[1], v[2]};
     SolveAveragedEndVelocity<3>(config_->table, config_->law, axis3, in.normal_force,
-                                velocity_amplitude, B, v_free, end);
-    AveragedVectorForce<3>(config_->table, config_->law, axis3, end, in.normal_force,
-                           velocity_amplitude, f3);
+                                velocity_amplitude, B, v_free, end, f3);
   } else if (state[ContactState::kRadius] > 0) {
     VectorStickSlipForce<3>(config_->law, in, v, v_free, B, f3);
   } else {  // a point contact: no spin friction, the tangential block alone
@@ -518,28 +516,28 @@ void ContactFriction::Advance(const mjModel* m, mjData* d, int instance) {
   mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
   const int body = config_->body, support = config_->support;
   // This step's contacts between the two bodies (the constraint solve has run).
+  touches_.clear();
+  for (int i = 0; i < d->ncon; ++i) {
+    const mjContact& c = d->contact[i];
+    if (c.efc_address < 0) continue;
+    const int b0 = m->geom_bodyid[c.geom[0]], b1 = m->geom_bodyid[c.geom[1]];
+    const bool body_first = b0 == body && b1 == support;
+    if (!body_first && !(b0 == support && b1 == body)) continue;
+    mjtNum wrench[6];
+    mj_contactForce(m, d, i, wrench);
+    if (!(wrench[0] > 0)) continue;
+    // The frame's normal points from geom[0] to geom[1]; n points from the support to the body.
+    touches_.push_back({i, wrench[0], body_first ? -1.0 : 1.0});
+  }
   double total = 0.0, point[3] = {0, 0, 0}, normal[3] = {0, 0, 0};
-  auto each_contact = [&](auto&& use) {
-    for (int i = 0; i < d->ncon; ++i) {
-      const mjContact& c = d->contact[i];
-      if (c.efc_address < 0) continue;
-      const int b0 = m->geom_bodyid[c.geom[0]], b1 = m->geom_bodyid[c.geom[1]];
-      const bool body_first = b0 == body && b1 == support;
-      if (!body_first && !(b0 == support && b1 == body)) continue;
-      mjtNum wrench[6];
-      mj_contactForce(m, d, i, wrench);
-      if (!(wrench[0] > 0)) continue;
-      // The frame's normal points from geom[0] to geom[1]; n points from the support to the body.
-      use(c, wrench[0], body_first ? -1.0 : 1.0);
-    }
-  };
-  each_contact([&](const mjContact& c, double fn, double sign) {
-    total += fn;
+  for (const Touch& touch : touches_) {
+    const mjContact& c = d->contact[touch.contact];
+    total += touch.normal_force;
     for (int k = 0; k < 3; ++k) {
-      point[k] += fn * c.pos[k];
-      normal[k] += sign * fn * c.frame[k];
+      point[k] += touch.normal_force * c.pos[k];
+      normal[k] += touch.sign * touch.normal_force * c.frame[k];
     }
-  });
+  }
   if (!(total > 0) || !(mju_normalize3(normal) > 0)) {
     mju_zero(state, ContactState::kSize);  // separated: no load, no deflection
     return;
@@ -547,11 +545,11 @@ void ContactFriction::Advance(const mjModel* m, mjData* d, int instance) {
   mju_scl3(point, point, 1.0 / total);
   double rho = config_->torsion_radius;
   if (rho == 0) {
-    each_contact([&](const mjContact& c, double fn, double) {
+    for (const Touch& touch : touches_) {
       mjtNum arm[3];
-      mju_sub3(arm, c.pos, point);
-      rho += fn * mju_norm3(arm);
-    });
+      mju_sub3(arm, d->contact[touch.contact].pos, point);
+      rho += touch.normal_force * mju_norm3(arm);
+    }
     rho /= total;
     // One contact point (a sphere, a vertex) has no arm: its rounding noise (1e-20 m) would
     // make a spin axis without response. Below a picometre is a point.

@@ -122,6 +122,14 @@ class ContactFriction {
   CachedConfig<ContactConfig> config_;
   std::vector<mjtNum> columns_;  // per chain dof: d(v at p)/dq (3), d(omega)/dq (3), signed
   std::vector<mjtNum> rows_;     // J (3 x nv) and M^-1 J' (3 x nv)
+  // Advance: this step's contacts between the two bodies (index in d->contact, normal force,
+  // sign of the frame's normal), each read once with mj_contactForce
+  struct Touch {
+    int contact;
+    double normal_force;
+    double sign;
+  };
+  std::vector<Touch> touches_;
   // Over one step, for the coulomb law's acceleration estimate: u at compute, and the change of
   // u that the applied force causes (B f, as u).
   double u_start_[4] = {0, 0, 0, 0};

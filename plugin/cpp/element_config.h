@@ -47,6 +47,8 @@ inline constexpr char kTableXi[] = "table_xi";
 inline constexpr char kTableAngle[] = "table_angle";
 inline constexpr char kTableAlong[] = "table_along";
 inline constexpr char kTableAcross[] = "table_across";
+// FNV-1a of the four lists' numbers (NumberListChecksum): lets the per-step config check skip them
+inline constexpr char kTableChecksum[] = "table_checksum";
 }  // namespace keys
 
 // Records the error "<plugin>: attribute '<attr>'="<value>" <rule>" and returns false.

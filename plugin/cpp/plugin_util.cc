@@ -1,5 +1,6 @@
 #include "plugin_util.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdarg>
@@ -9,6 +10,8 @@
 #include <cstring>
 #include <type_traits>
 #include <vector>
+
+#include "element_config.h"
 
 namespace vibrofriction {
 namespace {
@@ -184,10 +187,56 @@ bool ReadBool(const mjModel* m, int instance, const char* plugin, const char* at
                      attr, text);
 }
 
-std::string ConfigFingerprint(const mjModel* m, int instance) {
+std::uint64_t NumberListChecksum(std::initializer_list<const std::vector<double>*> lists) {
+  std::uint64_t hash = 14695981039346656037ull;
+  auto add = [&hash](std::uint64_t word) {
+    for (int k = 0; k < 8; ++k) {
+      hash ^= (word >> (8 * k)) & 0xffu;
+      hash *= 1099511628211ull;
+    }
+  };
+  for (const std::vector<double>* list : lists) {
+    add(list->size());
+    for (const double value : *list) {
+      std::uint64_t bits;
+      std::memcpy(&bits, &value, sizeof bits);
+      add(bits);
+    }
+  }
+  return hash;
+}
+
+ConfigFingerprint FingerprintOf(const mjModel* m, int instance, bool checksum_verified) {
   const int begin = m->plugin_attradr[instance];
   const int end = instance + 1 < m->nplugin ? m->plugin_attradr[instance + 1] : m->npluginattr;
-  return std::string(m->plugin_attr + begin, m->plugin_attr + end);
+  ConfigFingerprint fingerprint;
+  fingerprint.bytes.assign(m->plugin_attr + begin, m->plugin_attr + end);
+  std::vector<std::pair<std::size_t, std::size_t>> skipped;
+  const char* checksum = mj_getPluginConfig(m, instance, keys::kTableChecksum);
+  if (checksum_verified && checksum && checksum[0]) {
+    for (const char* key : {keys::kTableXi, keys::kTableAngle, keys::kTableAlong,
+                            keys::kTableAcross}) {
+      const char* value = mj_getPluginConfig(m, instance, key);
+      if (!value) continue;
+      const char* block = m->plugin_attr + begin;
+      if (value < block || value >= block + fingerprint.bytes.size()) {  // not in place: all
+        skipped.clear();
+        break;
+      }
+      const std::size_t from = static_cast<std::size_t>(value - block);
+      skipped.emplace_back(from, from + std::strlen(value));  // its terminator stays compared
+    }
+    std::sort(skipped.begin(), skipped.end());
+  }
+  std::size_t from = 0;
+  for (const auto& [skip_from, skip_to] : skipped) {
+    if (skip_from > from) fingerprint.compared.emplace_back(from, skip_from);
+    from = skip_to;
+  }
+  if (fingerprint.bytes.size() > from) {
+    fingerprint.compared.emplace_back(from, fingerprint.bytes.size());
+  }
+  return fingerprint;
 }
 
 int FindActuator(const mjModel* m, int instance, const char* plugin) {

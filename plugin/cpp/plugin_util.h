@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <initializer_list>
 #include <memory>
 #include <optional>
 #include <string>
@@ -67,18 +68,36 @@ bool ReadBool(const mjModel* m, int instance, const char* plugin, const char* at
 // implicitfast integrate the velocity by that step (README, "Time stepping").
 bool CheckIntegrator(const mjModel* m, const char* plugin);
 
-// Raw config bytes of an instance: equal bytes <=> equal configuration. Rollout and batch can
-// step one mjData with several models, so plugins compare this each step, not a model pointer.
-std::string ConfigFingerprint(const mjModel* m, int instance);
+// FNV-1a (64 bit) over each list's length and then its numbers' bit patterns, least significant
+// byte first: the `table_checksum` an averaged table states for its lists (written by
+// vibrofriction/averaged.py, checked when the config is read).
+std::uint64_t NumberListChecksum(std::initializer_list<const std::vector<double>*> lists);
 
-// True when the instance's config bytes equal `fingerprint`, compared in full; allocates
-// nothing. Inline: the plugins call it every step.
-inline bool ConfigUnchanged(const mjModel* m, int instance, const std::string& fingerprint) {
+// Config bytes of an instance, and what of them the per-step check compares. Rollout and batch
+// can step one mjData with several models, so plugins compare these each step, not a model
+// pointer. An instance with a `table_checksum` (verified by its reader before the fingerprint
+// is used) has its table lists' values left out of the comparison: the checksum's own text
+// stands for them, and equal bytes elsewhere (terminators included) keep every value in its
+// place, so equal compared bytes <=> equal configuration, at a fraction of a 16 kB table's cost.
+struct ConfigFingerprint {
+  std::string bytes;  // the instance's whole config block
+  std::vector<std::pair<std::size_t, std::size_t>> compared;  // [begin, end) offsets in bytes
+};
+// `checksum_verified`: the reader accepted the config, so a table_checksum in it is the
+// checksum of its table (otherwise every byte is compared).
+ConfigFingerprint FingerprintOf(const mjModel* m, int instance, bool checksum_verified);
+
+// True when the instance's config matches `fingerprint` in every compared byte (and in size);
+// allocates nothing. Inline: the plugins call it every step.
+inline bool ConfigUnchanged(const mjModel* m, int instance, const ConfigFingerprint& fingerprint) {
   const int begin = m->plugin_attradr[instance];
   const int end = instance + 1 < m->nplugin ? m->plugin_attradr[instance + 1] : m->npluginattr;
-  const std::size_t size = static_cast<std::size_t>(end - begin);
-  return size == fingerprint.size() &&
-         std::memcmp(m->plugin_attr + begin, fingerprint.data(), size) == 0;
+  if (static_cast<std::size_t>(end - begin) != fingerprint.bytes.size()) return false;
+  const char* block = m->plugin_attr + begin;
+  for (const auto& [from, to] : fingerprint.compared) {
+    if (std::memcmp(block + from, fingerprint.bytes.data() + from, to - from) != 0) return false;
+  }
+  return true;
 }
 
 // The parsed config of one plugin instance, re-read when stepped with a model whose config
@@ -97,7 +116,7 @@ class CachedConfig {
   static std::optional<CachedConfig> Load(Reader read, const mjModel* m, int instance) {
     Config config;
     if (!read(m, instance, &config, ReadScope::kAll)) return std::nullopt;
-    return CachedConfig(read, std::move(config), ConfigFingerprint(m, instance), m);
+    return CachedConfig(read, std::move(config), FingerprintOf(m, instance, true), m);
   }
 
   // False when the config of `m` is invalid (warned once, naming the element and attribute).
@@ -112,7 +131,7 @@ class CachedConfig {
   const Config* operator->() const { return &config_; }
 
  private:
-  CachedConfig(Reader read, Config config, std::string fingerprint, const mjModel* model)
+  CachedConfig(Reader read, Config config, ConfigFingerprint fingerprint, const mjModel* model)
       : read_(read), config_(std::move(config)), fingerprint_(std::move(fingerprint)),
         model_(model) {}
   // Another model, or the same one with other config bytes: read again. (Another model with
@@ -121,14 +140,14 @@ class CachedConfig {
   // trees differ.)
   bool Reload(const mjModel* m, int instance) {
     model_ = m;
-    fingerprint_ = ConfigFingerprint(m, instance);
     valid_ = read_(m, instance, &config_, ReadScope::kAll);
+    fingerprint_ = FingerprintOf(m, instance, valid_);
     if (!valid_) ReportConfigError(m, instance, /*fatal=*/false);
     return valid_;
   }
   Reader read_;
   Config config_;
-  std::string fingerprint_;
+  ConfigFingerprint fingerprint_;
   const mjModel* model_ = nullptr;  // compared, never dereferenced
   bool valid_ = true;
 };
