@@ -232,9 +232,12 @@ LIMITED = sorted(name for name in PLUGIN_ATTRIBUTES if name in LIMITS)
 
 
 def test_every_python_limit_of_a_plugin_attribute_is_compared():
-    # the rest are built-in MuJoCo values of the rig (body mass, drive spring), not plugin keys
+    # the rest are built-in MuJoCo values of the rig (body mass, drive spring and its play: the
+    # tendon's stiffness and springlength), not plugin keys
     assert set(LIMITS) - set(LIMITED) == {"mass_kg", "drive_stiffness_N_per_m",
-                                          "drive_damping_N_s_per_m"}
+                                          "drive_damping_N_s_per_m", "drive_backlash_m",
+                                          "drive_backlash_centre_m",
+                                          "drive_backlash_stiffness_N_per_m"}
 
 
 @pytest.mark.parametrize("name", LIMITED)

@@ -10,7 +10,8 @@ namespace {
 
 constexpr char kTendon[] = "tendon";
 constexpr char kTimeConstant[] = "time_constant";
-const char* const kAttributes[] = {kTendon, kTimeConstant};
+constexpr char kBeyondDeadband[] = "beyond_deadband";
+const char* const kAttributes[] = {kTendon, kTimeConstant, kBeyondDeadband};
 constexpr char kPlugin[] = "vibrofriction.lagged_tendon";
 
 }  // namespace
@@ -34,6 +35,7 @@ bool LaggedTendonConfig::FromModel(const mjModel* m, int instance, LaggedTendonC
   if (c.time_constant < 0) {
     return RejectAttribute(kPlugin, kTimeConstant, c.time_constant, "must be >= 0 (s)");
   }
+  if (!ReadBool(m, instance, kPlugin, kBeyondDeadband, false, &c.beyond_deadband)) return false;
   *config = c;
   return true;
 }
@@ -47,8 +49,18 @@ void LaggedTendon::Compute(const mjModel* m, mjData* d, int instance) {
   }
 }
 
+double LaggedTendon::Length(const mjModel* m, const mjData* d) const {
+  const int tendon = config_->tendon;
+  const double length = d->ten_length[tendon];
+  if (!config_->beyond_deadband) return length;
+  // MuJoCo's own rest range (springlength "low high"): what its spring force acts on
+  const double low = m->tendon_lengthspring[2 * tendon];
+  const double high = m->tendon_lengthspring[2 * tendon + 1];
+  return length > high ? length - high : length < low ? length - low : 0.0;
+}
+
 double LaggedTendon::Reading(const mjModel* m, const mjData* d, const mjtNum* state) const {
-  const double length = d->ten_length[config_->tendon];
+  const double length = Length(m, d);
   if (config_->time_constant <= 0 || state[2] == 0) return length;
   return FirstOrderLagStep(state[0], state[1], length, m->opt.timestep, config_->time_constant);
 }
@@ -58,7 +70,7 @@ void LaggedTendon::Advance(const mjModel* m, mjData* d, int instance) {
   mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
   // This step's reading (ten_length is still the step's: integration does not update it).
   state[0] = Reading(m, d, state);
-  state[1] = d->ten_length[config_->tendon];
+  state[1] = Length(m, d);
   state[2] = 1;
 }
 

@@ -1,5 +1,8 @@
 // Sensor plugin "vibrofriction.lagged_tendon": a tendon's length seen through a first-order lag,
 //   tau y' + y = L(t),  tau = time_constant (s; 0: no lag, y = L)
+// With beyond_deadband="true", L is the tendon's displacement outside its spring's rest range
+// (MuJoCo's springlength="low high", tendon_lengthspring): the extension a dynamometer in a
+// spring with backlash reads (0 while the play is open).
 // A dynamometer built around a spring (the rig's drive spring) reads its extension through its
 // signal conditioning; identification fits that lag when the record measures the drive force.
 // The lag starts at rest on the length at the first step (like a sensor switched on long before
@@ -25,6 +28,7 @@ namespace vibrofriction {
 struct LaggedTendonConfig {
   int tendon = -1;
   double time_constant = 0.0;  // s
+  bool beyond_deadband = false;  // read the displacement outside the spring's rest range
 
   static bool FromModel(const mjModel* m, int instance, LaggedTendonConfig* config,
                         ReadScope scope = ReadScope::kAll);
@@ -42,6 +46,8 @@ class LaggedTendon {
   void Advance(const mjModel* m, mjData* d, int instance);
 
  private:
+  // The length read: the tendon's, or its displacement outside its spring's rest range.
+  double Length(const mjModel* m, const mjData* d) const;
   // The reading at this step: the lag advanced from the last step to this step's length.
   double Reading(const mjModel* m, const mjData* d, const mjtNum* state) const;
   CachedConfig<LaggedTendonConfig> config_;

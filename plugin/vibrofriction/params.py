@@ -59,6 +59,9 @@ LIMITS: dict[str, tuple[float, float]] = {  # name -> (smallest nonzero magnitud
     "vibration_velocity_amplitude_m_per_s": (0.0, 1e3),
     "vibration_from_s": (0.0, 1e9),
     "normal_force_N": (0.0, 1e9),
+    "drive_backlash_m": (0.0, 1.0),
+    "drive_backlash_stiffness_N_per_m": (1e-9, 1e15),
+    "drive_backlash_centre_m": (0.0, 1.0),
     **_FRICTION_LIMITS,  # (vocabulary.FRICTION_TERMS)
 }
 
@@ -94,6 +97,22 @@ class RigParameters:
     # > 0: the table stands still until then, and its vibration builds up over
     # VIBRATION_RAMP_PERIODS periods from then on (a stage without vibration first)
     vibration_from_s: float = 0.0
+    # Backlash between the drive and the slider: the drive spring transmits nothing while its
+    # extension x - x_B lies within drive_backlash_centre_m +- drive_backlash_m / 2 (the play;
+    # centre 0: centred on the start, where x = x_B), then acts through the play's faces,
+    # whose contact stiffness is in series with it (0: rigid faces).
+    drive_backlash_m: float = 0.0
+    drive_backlash_stiffness_N_per_m: float = 0.0
+    drive_backlash_centre_m: float = 0.0
+
+    @property
+    def drive_chain_stiffness_N_per_m(self) -> float:
+        """The stiffness the drive pulls with outside the play: k_d in series with the play's
+        faces (k_d alone with rigid faces or no backlash)."""
+        k_d, k_c = self.drive_stiffness_N_per_m, self.drive_backlash_stiffness_N_per_m
+        if self.drive_backlash_m == 0 or k_c == 0:
+            return k_d
+        return k_d * k_c / (k_d + k_c)
 
     @property
     def vibration_amplitude_m(self) -> float:
@@ -122,6 +141,10 @@ class RigParameters:
         _require(self.normal_force_N >= 0, "normal_force_N", self.normal_force_N, "must be >= 0")
         _require(self.vibration_from_s >= 0, "vibration_from_s", self.vibration_from_s,
                  "must be >= 0 (s)")
+        _require(self.drive_backlash_m >= 0, "drive_backlash_m", self.drive_backlash_m,
+                 "must be >= 0 (m, the play's whole width)")
+        _require(self.drive_backlash_stiffness_N_per_m >= 0, "drive_backlash_stiffness_N_per_m",
+                 self.drive_backlash_stiffness_N_per_m, "must be >= 0 (N/m; 0: rigid faces)")
         _require(self.drive_velocity_m_per_s != 0, "drive_velocity_m_per_s",
                  self.drive_velocity_m_per_s, "must be non-zero")
         return self

@@ -78,7 +78,7 @@ class ReferenceResult:
     relative_velocity_m_per_s: np.ndarray  # v_r = x' - u'
     deflection_m: np.ndarray  # z (zero for the rigid Coulomb law)
     friction_force_N: np.ndarray  # F_F as reported (after the sensor lag)
-    drive_force_N: np.ndarray  # F_d = k_d (v_d t - x) + h_d (v_d - x')
+    drive_force_N: np.ndarray  # F_d = k_d (v_d t - x) + h_d (v_d - x'), through any backlash
     sticking: np.ndarray  # True where the rigid Coulomb contact sticks (always False otherwise)
     rig: RigParameters
     friction: FrictionParameters
@@ -344,6 +344,13 @@ class _Rig:
         self.m = rig.mass_kg
         self.kd = rig.drive_stiffness_N_per_m
         self.hd = rig.drive_damping_N_s_per_m
+        # Backlash: no spring force within +-gap of the start; outside, the spring in series
+        # with the play's faces (0: rigid).
+        half = 0.5 * rig.drive_backlash_m
+        self.play = (rig.drive_backlash_centre_m - half, rig.drive_backlash_centre_m + half) \
+            if half > 0 else (0.0, 0.0)
+        faces = rig.drive_backlash_stiffness_N_per_m
+        self.k_chain = self.kd if half == 0 or faces == 0 else 1.0 / (1 / self.kd + 1 / faces)
         self.vd = rig.drive_velocity_m_per_s
         self.w = 2 * math.pi * rig.vibration_frequency_Hz
         # f = 0 means no vibration (the support stands still), whatever v_a says.
@@ -371,8 +378,13 @@ class _Rig:
     def support_velocity(self, t: np.ndarray) -> np.ndarray:
         return np.array([self.support(ti)[1] for ti in np.asarray(t, dtype=float).tolist()])
 
+    def spring_force(self, t: float, x: float) -> float:
+        extension = x - self.vd * t  # x - x_B
+        low, high = self.play
+        return -self.k_chain * (extension - min(max(extension, low), high))
+
     def drive_force(self, t: float, x: float, xdot: float) -> float:
-        return self.kd * (self.vd * t - x) + self.hd * (self.vd - xdot)
+        return self.spring_force(t, x) + self.hd * (self.vd - xdot)
 
 
 def _simulate_state_law(drive: _Rig, law: Law, t_grid: np.ndarray, tolerances,
@@ -626,9 +638,20 @@ def _series(drive: _Rig, t: np.ndarray, x: np.ndarray, xdot: np.ndarray, z: np.n
         "position_m": x, "velocity_m_per_s": xdot, "support_velocity_m_per_s": udot,
         "relative_velocity_m_per_s": xdot - udot, "deflection_m": z,
         "friction_force_N": friction_N,
-        "drive_force_N": drive.kd * (drive.vd * t - x) + drive.hd * (drive.vd - xdot),
+        "drive_force_N": np.array([drive.drive_force(ti, xi, vi) for ti, xi, vi in
+                                   zip(t.tolist(), x.tolist(), xdot.tolist())]),
         "sticking": sticking,
     }
+
+
+def drive_spring_force_N(rig: RigParameters, time_s: np.ndarray,
+                         position_m: np.ndarray) -> np.ndarray:
+    """The drive spring's force on the slider (what a dynamometer in it reads), through any
+    backlash; the damper in parallel excluded."""
+    drive = _Rig(rig)
+    return np.array([drive.spring_force(t, x) for t, x in
+                     zip(np.asarray(time_s, dtype=float).tolist(),
+                         np.asarray(position_m, dtype=float).tolist())])
 
 
 def first_order_lag(signal: np.ndarray, dt_s: float, tau_s: float) -> np.ndarray:
@@ -653,4 +676,5 @@ def support_motion(rig: RigParameters, t_s: np.ndarray,
 
 
 __all__ = ["ReferenceResult", "simulate_reference", "support_motion", "first_order_lag",
+           "drive_spring_force_N",
            "ODE_METHOD"]

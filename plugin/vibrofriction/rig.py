@@ -61,6 +61,16 @@ def set_plugin_config(spec: mujoco.MjSpec, name: str, config: dict[str, str]) ->
     raise RuntimeError(f"MJCF model {spec.modelname!r} has no plugin instance named {name!r}")
 
 
+def dynamometer_config(rig: RigParameters, time_constant_s: float = 0.0) -> dict[str, str]:
+    """Config of the rig's dynamometer: the drive spring's extension (beyond the play, with
+    backlash) through a first-order lag of ``time_constant_s``. Its force is
+    -rig.drive_chain_stiffness_N_per_m times the reading."""
+    config = {"tendon": "drive_spring", "time_constant": repr(float(time_constant_s))}
+    if rig.drive_backlash_m > 0:
+        config["beyond_deadband"] = "true"
+    return config
+
+
 def build_spec(rig: RigParameters, friction: FrictionParameters,
                timestep_s: float = DEFAULT_TIMESTEP_S) -> mujoco.MjSpec:
     """MjSpec of the rig scene for ``friction.law`` with every parameter applied."""
@@ -76,6 +86,18 @@ def build_spec(rig: RigParameters, friction: FrictionParameters,
     drive = spec.actuator("drive_spring")
     # Tendon length x - x_B, velocity xdot - v_d: F_d = -k_d (x - x_B) - h_d (xdot - v_d).
     drive.biasprm[:3] = [0.0, -rig.drive_stiffness_N_per_m, -rig.drive_damping_N_s_per_m]
+    if rig.drive_backlash_m > 0:
+        # Backlash: the spring becomes the tendon's own, with MuJoCo's dead band (springlength
+        # "low high": no force within the play), and the dynamometer reads its extension
+        # beyond the play. The actuator keeps the damping.
+        drive.biasprm[1] = 0.0
+        tendon = spec.tendon("drive_spring")
+        stiffness = np.zeros(np.size(tendon.stiffness))  # linear (and polynomial) terms
+        stiffness[0] = rig.drive_chain_stiffness_N_per_m
+        tendon.stiffness = stiffness if stiffness.size > 1 else float(stiffness[0])
+        centre, half = rig.drive_backlash_centre_m, 0.5 * rig.drive_backlash_m
+        tendon.springlength = [centre - half, centre + half]
+        set_plugin_config(spec, "dynamometer", dynamometer_config(rig))
     shaker = {"frequency": repr(float(rig.vibration_frequency_Hz)),
               "velocity_amplitude": repr(float(rig.vibration_velocity_amplitude_m_per_s))}
     if rig.vibration_from_s > 0 and rig.vibration_velocity_amplitude_m_per_s > 0:
@@ -205,6 +227,19 @@ def sensor_slices(model: mujoco.MjModel) -> dict[str, slice]:
     return out
 
 
+def drive_force_columns(model: mujoco.MjModel, rig: RigParameters,
+                        sensordata: np.ndarray) -> np.ndarray:
+    """The drive's force on the slider at each step (N): the drive actuator's (spring and
+    damper), plus, with backlash, the tendon spring's through the play (MuJoCo applies it as a
+    passive force, which no built-in sensor reads: the dynamometer's unlagged extension does)."""
+    s = sensor_slices(model)
+    force = sensordata[:, s["drive_force"]][:, 0]
+    if rig.drive_backlash_m > 0:
+        force = force - rig.drive_chain_stiffness_N_per_m * \
+            sensordata[:, s["drive_spring_extension"]][:, 0]
+    return force
+
+
 def sensor_columns(model: mujoco.MjModel, sensordata: np.ndarray, name: str) -> np.ndarray:
     """Rollout sensordata (nstep x nsensordata) of sensor `name`: (nstep,) for a scalar sensor,
     (nstep, dim) otherwise. KeyError when the model has no such sensor."""
@@ -236,9 +271,9 @@ def runs_from_sensordata(model: mujoco.MjModel, rig: RigParameters,
         deflection_m=friction_state[:, 1],
         # The lagged channel equals the force itself unless sensor_lag_s > 0.
         friction_force_N=friction_state[:, 4],
-        drive_force_N=sensordata[:, s["drive_force"]][:, 0],
+        drive_force_N=drive_force_columns(model, rig, sensordata),
         normal_force_N=friction_state[:, 3],
-        dynamometer_force_N=-rig.drive_stiffness_N_per_m *
+        dynamometer_force_N=-rig.drive_chain_stiffness_N_per_m *
         sensordata[:, s["drive_spring_extension"]][:, 0],
     )
 

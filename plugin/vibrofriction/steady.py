@@ -233,7 +233,8 @@ def run_until_steady(cases: Sequence[Case], *, timesteps: Sequence[float] | None
                     c.state = state_out[k, -1].copy()
                     if keep_series:
                         c.series.append(sensordata[k].copy())
-                    c.forces = np.concatenate((c.forces, _force_columns(c.model, sensordata[k])))
+                    c.forces = np.concatenate((c.forces, _force_columns(c.model, c.rig,
+                                                                          sensordata[k])))
                     c.steps += nstep
                     result = _advance(c, tolerance)
                     if result is None:
@@ -263,10 +264,11 @@ def _check_finite(c: _Case, last_state: np.ndarray, sensordata: np.ndarray, nste
         "a value is not finite); use a smaller --timestep or check the parameters")
 
 
-def _force_columns(model: mujoco.MjModel, sensordata: np.ndarray) -> np.ndarray:
+def _force_columns(model: mujoco.MjModel, rig: RigParameters,
+                   sensordata: np.ndarray) -> np.ndarray:
     """(drive force, friction force) of each step: all a summary needs."""
     s = rig_module.sensor_slices(model)
-    return np.column_stack((sensordata[:, s["drive_force"]][:, 0],
+    return np.column_stack((rig_module.drive_force_columns(model, rig, sensordata),
                             sensordata[:, s["friction_state"]][:, 4]))
 
 

@@ -32,7 +32,7 @@ import numpy as np
 
 from .datasets import Dataset, DatasetMetadata, write_dataset
 from .params import PAPER_NORMAL_FORCE_N, FrictionParameters, ParameterError, RigParameters
-from .reference import first_order_lag, simulate_reference, support_motion
+from .reference import drive_spring_force_N, first_order_lag, simulate_reference, support_motion
 
 # The rig of the paper, pulled faster than in its figs. 7-12 (1 mm/s instead of 0.5 mm/s) so
 # that a 0.08 s record crosses several wavelengths of a position ripple.
@@ -159,10 +159,10 @@ def generate(scenario: Scenario, name: str = "synthetic", description: str = "")
     lag_s = friction.sensor_lag_s
     simulated = replace(friction, sensor_lag_s=0.0) if scenario.measured == "drive" else friction
     ref = simulate_reference(rig, simulated, scenario.duration_s, sample_dt_s=dt / oversample)
-    # The dynamometer is the drive spring: it reads k_d (v_d t - x), through its lag; a damper
-    # acting in parallel (drive_damping) pushes the slider without passing through it.
-    spring = rig.drive_stiffness_N_per_m * (rig.drive_velocity_m_per_s * ref.time_s -
-                                            ref.position_m)
+    # The dynamometer is the drive spring: it reads k_d (v_d t - x) (through any backlash),
+    # through its lag; a damper acting in parallel (drive_damping) pushes the slider without
+    # passing through it.
+    spring = drive_spring_force_N(rig, ref.time_s, ref.position_m)
     if scenario.measured == "drive" and lag_s > 0:
         spring = first_order_lag(spring, float(ref.time_s[1] - ref.time_s[0]), lag_s)
     if oversample > 1:

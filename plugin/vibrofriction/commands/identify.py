@@ -18,13 +18,14 @@ from .common import (UsageError, check_output_folder, check_replaceable_folder, 
                      parse_overrides, write_json)
 from ..datasets import Dataset, all_or_nothing, read_dataset
 from ..identify import MIN_IMPROVEMENT, identify
-from ..identify.model import INVERSE_EFFECTS
+from ..identify.model import INVERSE_EFFECTS, RIG_EFFECTS
 from ..identify.report import report_json, rig_replay, write_report
 from ..params import LAWS
 
 HELP = ("fit a friction law to a measured record (dataset format), trace the residual to "
         "missing effects (viscous, stribeck, asymmetry, position_ripple, "
-        "normal_force_modulation, drive_damping, sensor_lag, force_offset), select those the "
+        "normal_force_modulation, drive_damping, sensor_lag, force_offset; by simulation also "
+        "backlash; on the inverse path also position_map, velocity_map), select those the "
         "data justify, and write report.json, report.md and figures")
 
 # Sidecar keys --set may supply or override (docs/dataset-format.md).
@@ -96,10 +97,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     started = time.monotonic()
     declared = [e.strip() for e in args.declared.split(",") if e.strip()]
-    unknown = [e for e in declared if e not in INVERSE_EFFECTS]
+    # (each path then checks the effects it traces: the maps are the inverse path's, backlash
+    # the simulation path's)
+    unknown = [e for e in declared if e not in INVERSE_EFFECTS + RIG_EFFECTS]
     if unknown:
         raise UsageError(f"--with: unknown effect(s) {', '.join(unknown)}; use: "
-                         f"{', '.join(INVERSE_EFFECTS)}")
+                         f"{', '.join(INVERSE_EFFECTS + RIG_EFFECTS)}")
     if not 0 <= args.min_improvement < 1:
         raise UsageError(f"--min-improvement {args.min_improvement} must lie in [0, 1)")
     if args.substeps is not None and not 1 <= args.substeps <= 64:

@@ -222,6 +222,7 @@ BUNDLED = {"emps": rig_module.MJCF_DIR / "emps" / "emps.xml"}
 # Effects a machine record cannot have: no drive spring, the drive force is a logged command.
 NOT_APPLICABLE = {
     "drive_damping": "a machine has no drive spring (its damping is viscous friction)",
+    "backlash": "a machine has no drive spring whose play the rig's backlash models",
     "sensor_lag": "the drive force of a machine record is its controller's logged command",
     "normal_force_modulation": "the machine's support does not vibrate",
 }

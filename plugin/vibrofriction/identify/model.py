@@ -34,6 +34,11 @@ EFFECTS = ("viscous", "stribeck", "asymmetry", "position_ripple", "normal_force_
 # the vocabulary's narrower forms on the information criterion.
 MAP_EFFECTS = ("position_map", "velocity_map")
 INVERSE_EFFECTS = EFFECTS + MAP_EFFECTS
+# Effects of the rig beyond the friction, which only the simulation path traces: backlash
+# between the drive and the slider (a dead band of the drive spring). The inverse model takes
+# the measured drive force as it is, so a play before the dynamometer does not enter it.
+RIG_EFFECTS = ("backlash",)
+SIMULATION_EFFECTS = EFFECTS + RIG_EFFECTS
 # Knots of a fitted map: evenly over the record's relative position (its range) and over
 # its speeds (0 to the 99th percentile of |v|); the factors sum to 0, so the map cannot trade
 # with the friction coefficient.
@@ -146,6 +151,10 @@ def parameter_table(law: str, effects: Sequence[str], fit_mass: bool,
         "modulation_cos": Param("modulation_cos", -0.65, 0.65, 0.1),
         "modulation_sin": Param("modulation_sin", -0.65, 0.65, 0.1),
         "drive_damping_N_s_per_m": Param("drive_damping_N_s_per_m", 0.0, 1e6 * f / v, 0.1 * f / v),
+        # the play's whole width (the slider may stand while the drive end takes it up, so
+        # it can exceed the slider's travel)
+        "drive_backlash_m": Param("drive_backlash_m", 0.0, 10 * scales.travel_m,
+                                  0.01 * scales.travel_m),
         "sensor_lag_s": Param("sensor_lag_s", 0.0, 1e4 * scales.dt_s, scales.dt_s),
         "force_offset_N": Param("force_offset_N", -1e3 * f, 1e3 * f, 0.1 * f),
         "mass_kg": Param("mass_kg", 1e-9, 1e9, 1.0),
@@ -190,6 +199,7 @@ EFFECT_INTERNALS: dict[str, tuple[str, ...]] = {
     "drive_damping": ("drive_damping_N_s_per_m",),
     "sensor_lag": ("sensor_lag_s",),
     "force_offset": ("force_offset_N",),
+    "backlash": ("drive_backlash_m",),
     "position_map": tuple(f"position_map_c{i}" for i in range(1, POSITION_MAP_KNOTS)),
     "velocity_map": tuple(f"velocity_map_c{i}" for i in range(1, VELOCITY_MAP_KNOTS)),
 }
@@ -204,6 +214,7 @@ EFFECT_FIELDS: dict[str, tuple[str, ...]] = {
     "drive_damping": ("drive_damping_N_s_per_m",),
     "sensor_lag": ("sensor_lag_s",),
     "force_offset": ("force_offset_N",),
+    "backlash": ("drive_backlash_m",),
     # a map's factor at each knot (FrictionParameters' position_map_factors /
     # velocity_map_factors, with the knots the model holds)
     "position_map": tuple(f"position_map_factor_{i}" for i in range(1, POSITION_MAP_KNOTS + 1)),
@@ -241,7 +252,7 @@ class Model:
     def build(cls, law: str, effects: Sequence[str], fit_mass: bool, scales: Scales,
               base: FrictionParameters | None = None, state: Sequence[str] = (),
               scene: Sequence[str] = ()) -> "Model":
-        effects = tuple(e for e in INVERSE_EFFECTS if e in effects)
+        effects = tuple(e for e in INVERSE_EFFECTS + RIG_EFFECTS if e in effects)
         base = base or FrictionParameters(law=law)
         speeds = tuple(scales.sliding_speeds_m_per_s) if "stribeck" in effects else ()
         return cls(law=law, effects=effects, fit_mass=fit_mass,

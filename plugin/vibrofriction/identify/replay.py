@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Callable, Sequence
+from typing import Callable, Mapping, Sequence
 
 import mujoco
 import numpy as np
@@ -241,6 +241,32 @@ class RigReplay(SampleGrid):
     # the record's normal_force_N column drives F_N step by step (the friction actuator's
     # ctrl, control[:, 3], through the element's normal_from_ctrl); False: rig.normal_force_N
     normal_force_from_record: bool = False
+    # The side the spring pulls on at the first sample (sign of the force holding the slider,
+    # 0 when it is within the force's noise): where a backlash candidate's play starts.
+    initial_play_side: float = 0.0
+
+    def backlash_centre_m(self, backlash_m: float) -> float:
+        """Where a play of ``backlash_m`` is centred in this replay's coordinates (the drive
+        end at initial_drive_end_m + v_d (t - t0)): a record that starts unloaded starts at
+        the play's centre (as ``simulate`` runs do; a drive that never reverses shows only the
+        face it pulls on, so the width is twice the distance from the start to that face),
+        one that starts loaded starts against the face it pulls on, deflected by F / k_d."""
+        if backlash_m == 0:
+            return 0.0
+        start = self.initial_position_m - self.initial_drive_end_m
+        if self.initial_play_side == 0:
+            return start
+        return start + self.initial_friction_N / self.rig.drive_stiffness_N_per_m + \
+            0.5 * backlash_m * self.initial_play_side
+
+    def fitted_rig(self, values: Mapping[str, float], mass_kg: float) -> RigParameters:
+        """The rig with the fitted values: mass, drive damping, backlash (its centre from the
+        record's loaded samples)."""
+        backlash = values.get("drive_backlash_m", 0.0)
+        return replace(self.rig, mass_kg=mass_kg,
+                       drive_damping_N_s_per_m=values.get("drive_damping_N_s_per_m", 0.0),
+                       drive_backlash_m=backlash,
+                       drive_backlash_centre_m=self.backlash_centre_m(backlash))
 
     @property
     def sliding(self) -> bool:
@@ -393,8 +419,8 @@ class RigReplay(SampleGrid):
                 **rig_module.friction_config(rig, friction), "normal": "0.0",
                 "normal_gain": "1.0", "normal_from_ctrl": "true"})
         if self.lagged_sensor == "dynamometer":
-            rig_module.set_plugin_config(spec, "dynamometer", {
-                "tendon": "drive_spring", "time_constant": repr(float(lag_s))})
+            rig_module.set_plugin_config(spec, "dynamometer",
+                                         rig_module.dynamometer_config(rig, lag_s))
         if outputs is not None:
             keep = {s for name in outputs for s in SENSORS_OF_OUTPUT[name]}
             for sensor in list(spec.sensors):
@@ -542,7 +568,7 @@ def _channels(model: mujoco.MjModel, rig: RigParameters, sensordata: np.ndarray,
         elif name == "acceleration_m_per_s2":
             out[name] = sensor("slider_acceleration")[:, 0]
         elif name == "drive_force_N":
-            out[name] = -rig.drive_stiffness_N_per_m * sensor("drive_spring_extension")
+            out[name] = -rig.drive_chain_stiffness_N_per_m * sensor("drive_spring_extension")
         elif name == "friction_force_N":
             out[name] = sensor("friction_state")[:, 4]
         elif name == "relative_position_m":
@@ -651,12 +677,20 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
         friction0 = 0.0
     if "drive_force_N" in columns:
         # The dynamometer is the drive spring: x + F_d / k_d - v_d t is the far end's start at
-        # every sample; their mean has sqrt(n) less noise than the first sample alone.
+        # every sample; their mean has sqrt(n) less noise than the first sample alone. (With
+        # a play the estimate is off by up to half of it; a backlash candidate's play is placed
+        # relative to the start, so its faces land where the record puts them whatever this
+        # estimate: ``backlash_centre_m``.)
         ends = position + np.asarray(columns["drive_force_N"], dtype=float) / k_d - \
             v_d * (t - t[0])
         drive_end0 = float(np.mean(ends))
     else:
         drive_end0 = float(position[0])
+    holding = next((columns[c] for c in ("drive_force_N", "friction_force_N") if c in columns),
+                   None)
+    play_side = 0.0  # (a force within 5 noise sd of 0 at the start: the play is open)
+    if holding is not None and abs(friction0) > 5.0 * noise_sd(np.asarray(holding, dtype=float)):
+        play_side = math.copysign(1.0, friction0)
     drive_end = drive_end0 + v_d * (step_ends - t[0])
     control = np.zeros((nstep, 4))
     control[:, 0], control[:, 1] = table, drive_end  # actuator order of rig.xml
@@ -679,7 +713,8 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
         initial_support_velocity_m_per_s=float(support_velocity[0]),
         initial_drive_end_m=drive_end0, initial_friction_N=friction0, vibrating=vibrating,
         timestep_from_record=from_record, sliding_steps_per_sample=sliding,
-        support_still=still, normal_force_from_record=normal_from_record)
+        support_still=still, normal_force_from_record=normal_from_record,
+        initial_play_side=play_side)
 
 
 # Stick phases (``stick_phase_steps``): between two slips (speed relative to the support above

@@ -35,7 +35,7 @@ from ..errors import InputError
 from ..params import LAWS, FrictionParameters
 from .analysis import ResidualAnalysis, analyse
 from .fit import FitResult, Problem
-from .model import EFFECT_INTERNALS, INVERSE_EFFECTS, Model, Scales
+from .model import EFFECT_INTERNALS, INVERSE_EFFECTS, RIG_EFFECTS, Model, Scales
 from .record import Record, prepare
 from .replay import MIN_SAMPLES
 
@@ -190,7 +190,10 @@ def check_law_and_effects(law: str, declared: Sequence[str],
     unknown = [e for e in declared if e not in effects]
     if unknown:
         maps = [e for e in unknown if e in INVERSE_EFFECTS]
-        where = f" ({', '.join(maps)}: the inverse path only, --method inverse)" if maps else ""
+        rig_only = [e for e in unknown if e in RIG_EFFECTS]
+        where = f" ({', '.join(maps)}: the inverse path only, --method inverse)" if maps else \
+            f" ({', '.join(rig_only)}: the simulation path only, where the rig's drive is " \
+            "simulated)" if rig_only else ""
         raise InputError(f"unknown effect(s) {', '.join(unknown)}{where}; the vocabulary is "
                          f"{', '.join(effects)}")
 

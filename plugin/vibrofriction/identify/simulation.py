@@ -58,7 +58,7 @@ from ..errors import InputError
 from ..params import FrictionParameters, RigParameters, lugre_default_bristle_damping
 from .analysis import effective_samples, uniform_spectrum
 from .fit import Metrics, _metrics
-from .model import EFFECT_INTERNALS, EFFECTS, Model, Scales, forward_steps
+from .model import EFFECT_INTERNALS, SIMULATION_EFFECTS, Model, Scales, forward_steps
 from .replay import (MAX_SUBSTEPS, MIN_SAMPLES, Replayer, RigReplay, prepare_replay,
                      stick_phase_steps)
 from .shooting import MultipleShooting
@@ -106,7 +106,7 @@ SCREENED_FITS = 3  # candidates fitted in full per round (the best linearized on
 # fitted for 7 s each to fall 0.03 %) unless it is far from linear in its values: a Stribeck
 # peak (stick-slip) or a sensor lag of a sizeable part of the vibration period.
 LINEARIZED_DROP_FRACTION = 0.25
-_NONLINEAR_EFFECTS = ("stribeck", "sensor_lag")
+_NONLINEAR_EFFECTS = ("stribeck", "sensor_lag", "backlash")
 CONVERGED_LEADERS = 2  # justified candidates whose fits are converged before a round's choice
 _STEP_FRACTIONS = (1.0, 0.5, 0.25, 0.1)  # of a candidate's linearized step, tried at once
 # mu F_N over the drive-force level (vibration lowers it), about 1.25 apart: at 1.6 apart a
@@ -283,8 +283,9 @@ class SimulationProblem:
         friction = model.friction_parameters(values)
         mass = values.get("mass_kg", replay.rig.mass_kg if replay.mass_known else
                           self.train.rig.mass_kg)
-        rig = replace(replay.rig, mass_kg=mass,
-                      drive_damping_N_s_per_m=values.get("drive_damping_N_s_per_m", 0.0))
+        rig = replay.fitted_rig(values, mass) if hasattr(replay, "fitted_rig") else \
+            replace(replay.rig, mass_kg=mass,
+                    drive_damping_N_s_per_m=values.get("drive_damping_N_s_per_m", 0.0))
         initial = {n: values[n] for n in model.state if n in values} \
             if replay is self.train else {}
         return rig, friction, initial, {n: values[n] for n in model.scene if n in values}
@@ -434,7 +435,7 @@ def identify_by_simulation(train: Dataset, validation: Sequence[Dataset] = (), *
     """Fit ``law`` (+ declared effects) to ``train`` by simulating the rig, then select."""
     started = time.monotonic()
     say = progress or (lambda message: None)
-    check_law_and_effects(law, declared, EFFECTS)
+    check_law_and_effects(law, declared, SIMULATION_EFFECTS)
     for record in (train, *validation):
         check_identifiable(record)
     replay = prepare_replay(train, substeps=substeps)
@@ -515,7 +516,7 @@ def _converged_timestep(problem: SimulationProblem, train: Dataset, law: str,
     again: the simulator's error then stays below the record's noise (or ``MAX_SUBSTEPS`` is
     reached). Returns them and the scan (scales, starts) they were checked with."""
     fit_mass = not problem.train.mass_known
-    declared = tuple(e for e in EFFECTS if e in declared)
+    declared = tuple(e for e in SIMULATION_EFFECTS if e in declared)
     scales, starts = _start(problem, law, fit_mass, declared)
     model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law),
                         problem.state, problem.scene)
@@ -560,7 +561,7 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
          if getattr(replay, "support_still", False) else "") +
         (f", {len(problem.validation)} held-out record(s)" if problem.validation else ""))
     skipped = _not_applicable(replay, law, declared)
-    declared = tuple(e for e in EFFECTS if e in declared and e not in skipped)
+    declared = tuple(e for e in SIMULATION_EFFECTS if e in declared and e not in skipped)
     # (a scan carried over from a coarser timestep: the local optima found there, each with
     # where its start came from; a stick-slip record's segmented stage is not run again)
     scales, starts, *carried = scan or _start(problem, law, fit_mass, declared)
@@ -661,7 +662,7 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
     say(f"baseline: {problem.primary} relerr {baseline.train.relerr_pct:.3g} %; simulator "
         f"error floor {math.sqrt(problem.floor / len(baseline.residual)):.3g} (weighted rms)")
     current = baseline
-    remaining = [e for e in EFFECTS if e not in declared and e not in skipped]
+    remaining = [e for e in SIMULATION_EFFECTS if e not in declared and e not in skipped]
     dropped: dict[str, str] = {}
     candidates: dict[str, SimCandidate] = {}
     rounds: list[list[SimCandidate]] = []

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..params import RigParameters
 from ..provenance import json_text
-from .model import EFFECT_FIELDS, EFFECTS
+from .model import EFFECT_FIELDS, SIMULATION_EFFECTS
 from .report import write_folder
 from .simulation import MIN_SLIPS, SimFit, SimIdentification
 
@@ -31,6 +31,9 @@ def parameters(result: SimIdentification, fit: SimFit) -> dict[str, float | None
     out: dict[str, Any] = friction.law_values()
     out.update({"mass_kg": rig.mass_kg, "drive_damping_N_s_per_m": rig.drive_damping_N_s_per_m,
                 "normal_force_N": rig.normal_force_N})
+    if rig.drive_backlash_m > 0:
+        out.update({"drive_backlash_m": rig.drive_backlash_m,
+                    "drive_backlash_centre_m": rig.drive_backlash_centre_m})
     out.update({n: fit.values[n] for n in fit.model.scene})
     return {k: _finite(v) for k, v in out.items()}
 
@@ -38,9 +41,11 @@ def parameters(result: SimIdentification, fit: SimFit) -> dict[str, float | None
 def _case(result: SimIdentification, fit: SimFit) -> tuple[RigParameters, Any]:
     replay = result.train
     friction = fit.model.friction_parameters(fit.values)
-    rig = dataclasses.replace(
-        replay.rig, mass_kg=fit.values.get("mass_kg", replay.rig.mass_kg),
-        drive_damping_N_s_per_m=fit.values.get("drive_damping_N_s_per_m", 0.0))
+    mass = fit.values.get("mass_kg", replay.rig.mass_kg)
+    rig = replay.fitted_rig(fit.values, mass) if hasattr(replay, "fitted_rig") else \
+        dataclasses.replace(replay.rig, mass_kg=mass,
+                            drive_damping_N_s_per_m=fit.values.get("drive_damping_N_s_per_m",
+                                                                   0.0))
     return rig, friction
 
 
@@ -52,7 +57,7 @@ def report_json(result: SimIdentification) -> dict[str, Any]:
                              for c, m in fit.channels.items()}}
 
     candidates = []
-    for effect in EFFECTS:
+    for effect in SIMULATION_EFFECTS:
         c = result.candidates.get(effect)
         if c is None:
             continue
@@ -142,6 +147,8 @@ def set_line(result: SimIdentification) -> str:
                                                                  "mass_kg")]
     if "normal_force_modulation" in result.final.values:
         names.append("normal_force_modulation_frequency_Hz")
+    if "drive_backlash_m" in result.final.values:
+        names.append("drive_backlash_centre_m")
     if result.train.lagged_sensor == "dynamometer":
         # the lag is the rig dynamometer's (its sensor's time_constant), not the element's
         names = [n for n in names if n != "sensor_lag_s"]

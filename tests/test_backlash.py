@@ -1,0 +1,96 @@
+"""Backlash between the drive and the slider (issue 14): the drive spring as MuJoCo's own tendon
+spring with a dead band (springlength "low high"), the dynamometer reading its extension beyond
+the play (vibrofriction.lagged_tendon, beyond_deadband), against the independent scipy
+reference; and the simulation path's `backlash` candidate."""
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+import vibrofriction
+from vibrofriction import reference, rig
+from vibrofriction.commands.simulate import dataset_of
+from vibrofriction.errors import InputError
+from vibrofriction.identify import identify
+from vibrofriction.identify.simulation import identify_by_simulation
+from vibrofriction.params import FrictionParameters, ParameterError, RigParameters
+
+DAHL = FrictionParameters(law="dahl", friction_coefficient=0.17, contact_stiffness_N_per_m=60e6,
+                          alpha=1.5)
+PLAY_M = 20e-6
+
+
+@pytest.mark.parametrize("faces_N_per_m, centre_m", [(0.0, 0.0), (2e6, 3e-6), (0.0, -4e-6)])
+def test_the_rig_with_backlash_is_the_reference(faces_N_per_m, centre_m):
+    """No force until the drive end has taken up the play on the side it pulls, then the
+    spring in series with the faces: the MuJoCo rig (its tendon spring's dead band) against
+    the scipy oracle's own dead zone, sample by sample."""
+    params = RigParameters(drive_backlash_m=PLAY_M, drive_backlash_stiffness_N_per_m=faces_N_per_m,
+                           drive_backlash_centre_m=centre_m)
+    run = rig.simulate(params, DAHL, duration_s=0.05)
+    ref = reference.simulate_reference(params, DAHL, 0.05, sample_dt_s=run.timestep_s)
+    n = min(len(run.time_s), len(ref.time_s))
+    scale = float(np.max(np.abs(ref.drive_force_N)))
+    for force in (run.drive_force_N, run.dynamometer_force_N):  # (no damper: the same)
+        np.testing.assert_allclose(force[:n], ref.drive_force_N[:n], rtol=0, atol=1e-4 * scale)
+    # the drive end at v_d reaches the face it pulls on (x - x_B = centre - play / 2) at:
+    take_up_s = (PLAY_M / 2 - centre_m) / params.drive_velocity_m_per_s
+    engaged = run.time_s[np.argmax(run.drive_force_N > 1e-6 * scale)]
+    assert engaged == pytest.approx(take_up_s, abs=2 * run.timestep_s)
+    # in series with the faces the spring pulls with k_d k_c / (k_d + k_c)
+    k_d = params.drive_stiffness_N_per_m
+    assert params.drive_chain_stiffness_N_per_m == pytest.approx(
+        k_d if faces_N_per_m == 0 else k_d * faces_N_per_m / (k_d + faces_N_per_m))
+
+
+def test_without_backlash_the_drive_is_unchanged():
+    plain = rig.simulate(RigParameters(), DAHL, duration_s=0.02)
+    model = rig.build_model(RigParameters(), DAHL)
+    assert model.tendon_stiffness[model.tendon("drive_spring").id] == 0  # the bias is the spring
+    assert plain.drive_force_N[0] == 0 and plain.drive_force_N[-1] > 0
+    np.testing.assert_array_equal(plain.drive_force_N, plain.dynamometer_force_N)
+
+
+def test_the_dynamometer_reads_zero_inside_the_play_and_the_extension_beyond_it():
+    vibrofriction.load()
+    params = RigParameters(drive_backlash_m=PLAY_M)
+    model = rig.build_model(params, DAHL)
+    data = mujoco.MjData(model)
+    drive_end = model.joint("drive_end_slide").qposadr[0]
+    sensor = model.sensor("drive_spring_extension").adr[0]
+    for lead_m in (-3 * PLAY_M, -0.4 * PLAY_M, 0.0, 0.3 * PLAY_M, 2 * PLAY_M):
+        data.qpos[:] = 0
+        data.qpos[drive_end] = lead_m  # x - x_B = -lead
+        mujoco.mj_forward(model, data)
+        extension = -lead_m
+        beyond = extension - np.clip(extension, -PLAY_M / 2, PLAY_M / 2)
+        assert data.sensordata[sensor] == pytest.approx(beyond, abs=1e-15)
+
+
+def test_backlash_out_of_range_is_named():
+    with pytest.raises(ParameterError, match="drive_backlash_m"):
+        RigParameters(drive_backlash_m=-1e-6).validate()
+    with pytest.raises(ParameterError, match="drive_backlash_stiffness_N_per_m"):
+        RigParameters(drive_backlash_m=1e-5, drive_backlash_stiffness_N_per_m=-1.0).validate()
+
+
+def test_a_hidden_play_is_the_one_selection_with_its_width():
+    """A simulate record (vibrating, position, forces) whose drive takes up a 20 um play
+    first: identified with its law, `backlash` is selected alone and the play comes back
+    (the record starts unloaded: the play's centre is the start, its width twice the take-up).
+    The clean records of the round-trip tests select nothing (tests/test_identify_simulation)."""
+    params = RigParameters(vibration_velocity_amplitude_m_per_s=1.5e-3, drive_backlash_m=PLAY_M)
+    run = rig.simulate(params, DAHL, timestep_s=rig.recommended_timestep(params),
+                       duration_s=0.06)
+    result = identify_by_simulation(dataset_of(run, "dahl"), law="dahl")
+    assert result.selected == ["backlash"]
+    assert result.final.values["drive_backlash_m"] == pytest.approx(PLAY_M, rel=0.01)
+    for name in ("friction_coefficient", "contact_stiffness_N_per_m", "alpha"):
+        assert result.final.values[name] == pytest.approx(getattr(DAHL, name), rel=0.01), name
+
+
+def test_the_inverse_path_names_backlash_a_simulation_effect():
+    run = rig.simulate(RigParameters(), DAHL, duration_s=0.03)
+    with pytest.raises(InputError, match="backlash: the simulation path only"):
+        identify(dataset_of(run, "dahl"), law="dahl", declared=("backlash",))
