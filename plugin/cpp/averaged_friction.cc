@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cctype>
-#include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -292,11 +291,11 @@ bool ReadAveragedTable(const mjModel* m, int instance, const char* plugin,
   // after the checks above: a table that is wrong in itself is named as such
   const char* checksum = mj_getPluginConfig(m, instance, kTableChecksum);
   if (checksum && checksum[0]) {
-    char* end = nullptr;
-    errno = 0;
-    const unsigned long long stated = std::strtoull(checksum, &end, 16);
-    const bool hex16 = std::strlen(checksum) == 16 && *end == '\0' && errno == 0 &&
-                       std::isxdigit(static_cast<unsigned char>(checksum[0]));
+    bool hex16 = std::strlen(checksum) == 16;  // exactly 16 hex digits (no sign, no 0x)
+    for (int k = 0; hex16 && k < 16; ++k) {
+      hex16 = std::isxdigit(static_cast<unsigned char>(checksum[k])) != 0;
+    }
+    const unsigned long long stated = hex16 ? std::strtoull(checksum, nullptr, 16) : 0;
     const std::uint64_t actual = NumberListChecksum({&t.xi, &t.angle, &t.along, &t.across});
     if (!hex16 || stated != actual) {
       ConfigError("%s: attribute '%s'=\"%.40s\" is not the checksum of the table's values "

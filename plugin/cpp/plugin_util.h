@@ -78,7 +78,10 @@ std::uint64_t NumberListChecksum(std::initializer_list<const std::vector<double>
 // pointer. An instance with a `table_checksum` (verified by its reader before the fingerprint
 // is used) has its table lists' values left out of the comparison: the checksum's own text
 // stands for them, and equal bytes elsewhere (terminators included) keep every value in its
-// place, so equal compared bytes <=> equal configuration, at a fraction of a 16 kB table's cost.
+// place, so for compiled models (whose checksum the compiler's reading verified) equal compared
+// bytes <=> equal configuration, at a fraction of a 16 kB table's cost. Not seen: a table's
+// bytes overwritten in place in mjModel.plugin_attr with its old checksum kept (the element
+// keeps the table it read; docs/interfaces.md, table_checksum).
 struct ConfigFingerprint {
   std::string bytes;  // the instance's whole config block
   std::vector<std::pair<std::size_t, std::size_t>> compared;  // [begin, end) offsets in bytes

@@ -197,6 +197,10 @@ def build_rig_spec(rig: RigParameters, friction: FrictionParameters, *,
     if rig.vibration_from_s > 0:
         raise ParameterError("the planar rig vibrates from the start; vibration_from_s="
                              f"{rig.vibration_from_s!r} is for the 1D rig (rig.simulate)")
+    if rig.drive_backlash_m > 0:
+        raise ParameterError(f"drive_backlash_m={rig.drive_backlash_m!r}: the planar rig's "
+                             "drive springs have no play; backlash is the 1D rig's "
+                             "(rig.simulate)")
     check_planar(friction)
     if not (timestep_s > 0 and math.isfinite(timestep_s)):
         raise ParameterError(f"timestep {timestep_s!r} must be a positive number of seconds")

@@ -206,9 +206,10 @@ def _run_from_rollout(model: mujoco.MjModel, rig: RigParameters, friction: Frict
         relative_velocity_m_per_s=sensors["relative_velocity"],
         deflection_m=deflection,
         friction_force_N=-sensors[FORCE_SENSOR],
-        drive_force_N=sensors["drive_force"],
+        drive_force_N=rig_module.drive_force_columns(model, rig, sensordata),
         normal_force_N=np.full(n, rig.normal_force_N),
-        dynamometer_force_N=-rig.drive_stiffness_N_per_m * sensors["drive_spring_extension"],
+        dynamometer_force_N=-rig.drive_chain_stiffness_N_per_m *
+        sensors["drive_spring_extension"],
     )
 
 

@@ -152,13 +152,18 @@ def recommended_timestep(rig: RigParameters) -> float:
 def default_times(rig: RigParameters, friction: FrictionParameters) -> tuple[float, float]:
     """(duration_s, settle_time_s): loading to breakaway, transient, then an averaging window.
 
-    The spring loads to mu F_N in t_load = mu F_N / (k_d v_d); the transient is given two
+    The spring loads to mu F_N in t_load = mu F_N / (k_d v_d) (k_d in series with a play's
+    faces), after taking up any play on the side it pulls; the transient is given that, two
     loadings plus 30 ms, and the mean is taken over the following 40 ms of whole periods. A
     vibration switched on later (``vibration_from_s``) adds its start and build-up.
     """
     static_force_N = friction.friction_coefficient * rig.normal_force_N * friction.static_ratio
-    t_load_s = static_force_N / (rig.drive_stiffness_N_per_m * abs(rig.drive_velocity_m_per_s))
-    settle_time_s = 2.0 * t_load_s + 0.03
+    v_d = abs(rig.drive_velocity_m_per_s)
+    t_load_s = static_force_N / (rig.drive_chain_stiffness_N_per_m * v_d)
+    # x - x_B starts at 0 and moves at -v_d toward the face pulled on (centre -+ play / 2)
+    t_take_up_s = max(0.0, 0.5 * rig.drive_backlash_m - math.copysign(
+        1.0, rig.drive_velocity_m_per_s) * rig.drive_backlash_centre_m) / v_d
+    settle_time_s = t_take_up_s + 2.0 * t_load_s + 0.03
     if rig.vibration_from_s > 0 and rig.vibration_frequency_Hz > 0 and \
             rig.vibration_velocity_amplitude_m_per_s > 0:
         settle_time_s += rig.vibration_from_s + VIBRATION_RAMP_PERIODS / rig.vibration_frequency_Hz

@@ -254,9 +254,14 @@ class RigReplay(SampleGrid):
         if backlash_m == 0:
             return 0.0
         start = self.initial_position_m - self.initial_drive_end_m
-        if self.initial_play_side == 0:
-            return start
-        return start + self.initial_friction_N / self.rig.drive_stiffness_N_per_m + \
+        return start + self.backlash_centre_from_start_m(backlash_m)
+
+    def backlash_centre_from_start_m(self, backlash_m: float) -> float:
+        """The same centre relative to the record's start (x - x_B there taken as 0, as a
+        ``simulate`` run starts): what RigParameters.drive_backlash_centre_m means."""
+        if backlash_m == 0 or self.initial_play_side == 0:
+            return 0.0
+        return self.initial_friction_N / self.rig.drive_chain_stiffness_N_per_m + \
             0.5 * backlash_m * self.initial_play_side
 
     def fitted_rig(self, values: Mapping[str, float], mass_kg: float) -> RigParameters:

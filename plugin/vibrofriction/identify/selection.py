@@ -191,9 +191,10 @@ def check_law_and_effects(law: str, declared: Sequence[str],
     if unknown:
         maps = [e for e in unknown if e in INVERSE_EFFECTS]
         rig_only = [e for e in unknown if e in RIG_EFFECTS]
-        where = f" ({', '.join(maps)}: the inverse path only, --method inverse)" if maps else \
-            f" ({', '.join(rig_only)}: the simulation path only, where the rig's drive is " \
-            "simulated)" if rig_only else ""
+        notes = ([f"{', '.join(maps)}: the inverse path only, --method inverse"] if maps else []) \
+            + ([f"{', '.join(rig_only)}: the simulation path only, where the rig's drive is "
+                "simulated"] if rig_only else [])
+        where = f" ({'; '.join(notes)})" if notes else ""
         raise InputError(f"unknown effect(s) {', '.join(unknown)}{where}; the vocabulary is "
                          f"{', '.join(effects)}")
 

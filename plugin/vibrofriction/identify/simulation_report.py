@@ -32,8 +32,12 @@ def parameters(result: SimIdentification, fit: SimFit) -> dict[str, float | None
     out.update({"mass_kg": rig.mass_kg, "drive_damping_N_s_per_m": rig.drive_damping_N_s_per_m,
                 "normal_force_N": rig.normal_force_N})
     if rig.drive_backlash_m > 0:
+        # the centre as simulate takes it: relative to the start (the replay's own coordinates
+        # place the drive end where the record's samples put it)
+        centre = result.train.backlash_centre_from_start_m(rig.drive_backlash_m) \
+            if hasattr(result.train, "backlash_centre_from_start_m") else 0.0
         out.update({"drive_backlash_m": rig.drive_backlash_m,
-                    "drive_backlash_centre_m": rig.drive_backlash_centre_m})
+                    "drive_backlash_centre_m": centre})
     out.update({n: fit.values[n] for n in fit.model.scene})
     return {k: _finite(v) for k, v in out.items()}
 

@@ -205,13 +205,13 @@ class VariantRun:
     friction_force_N: np.ndarray | None = None
 
 
-def _friction_series(model: mujoco.MjModel, sensordata: np.ndarray, mass_kg: float,
+def _friction_series(model: mujoco.MjModel, sensordata: np.ndarray, rig: RigParameters,
                      builtin: bool) -> tuple[np.ndarray, np.ndarray]:
     slices = rig_module.sensor_slices(model)
-    drive = sensordata[:, slices["drive_force"]][:, 0]
+    drive = rig_module.drive_force_columns(model, rig, sensordata)
     if builtin:
         accel = sensordata[:, slices["slider_acceleration"]][:, 0]
-        return drive, drive - mass_kg * accel
+        return drive, drive - rig.mass_kg * accel
     return drive, sensordata[:, slices["friction_state"]][:, 4]
 
 
@@ -248,7 +248,7 @@ def run_variants(requests: Sequence[tuple[str, RigParameters, float]], config: S
                 wall, cpu = time.perf_counter() - t0, time.thread_time() - c0
             for k, i in enumerate(part):
                 r = requests[i][1]
-                drive, friction = _friction_series(models[k], sensordata[k], r.mass_kg, builtin)
+                drive, friction = _friction_series(models[k], sensordata[k], r, builtin)
                 t = np.arange(nstep) * dt
                 period = (1.0 / r.vibration_frequency_Hz
                           if r.vibration_velocity_amplitude_m_per_s > 0 else 0.0)
