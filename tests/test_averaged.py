@@ -281,6 +281,21 @@ def test_a_table_edited_after_its_checksum_was_made_is_refused(checksum, named):
         _spec_with(config).compile()
 
 
+def test_a_checksum_with_a_0x_prefix_is_refused_even_when_its_value_matches():
+    """strtoull would read "0x" + the last 14 digits of a checksum starting "00" as its value:
+    the format is 16 hex digits exactly (a table whose checksum starts "00" is searched for)."""
+    for k in range(4096):
+        config = _synthetic_table_config(1.0 + 1e-3 * k, checksum=True)
+        if config["table_checksum"].startswith("00"):
+            break
+    else:  # pragma: no cover - 1 in 256 a try
+        pytest.fail("no table with a checksum starting 00 in 4096 tries")
+    _spec_with(config).compile()
+    config["table_checksum"] = "0x" + config["table_checksum"][2:]
+    with pytest.raises(ValueError, match="is not the checksum"):
+        _spec_with(config).compile()
+
+
 def test_the_tables_build_table_writes_carry_their_checksum(dahl_table):
     config = dahl_table.config()
     assert len(config["table_checksum"]) == 16  # (the plugin's verdict: every compile here)

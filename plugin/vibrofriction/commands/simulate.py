@@ -168,7 +168,10 @@ def _too_many_steps(args: argparse.Namespace,
                 f"drive_velocity_m_per_s) = 2*{_g(friction.friction_coefficient)}*"
                 f"{_g(rig.normal_force_N)}*{_g(friction.static_ratio)}/"
                 f"({_g(rig.drive_stiffness_N_per_m)}*{_g(abs(rig.drive_velocity_m_per_s))}), "
-                "plus 30 ms and the windows)")
+                "plus 30 ms and the windows" + (
+                    f"; first the drive takes up its play, drive_backlash_m="
+                    f"{_g(rig.drive_backlash_m)}, and pulls through its faces' stiffness"
+                    if rig.drive_backlash_m > 0 else "") + ")")
             fixes.append("--set a smaller normal_force_N or a larger drive_velocity_m_per_s "
                          "or drive_stiffness_N_per_m")
         else:  # the maximum time itself

@@ -34,8 +34,7 @@ def parameters(result: SimIdentification, fit: SimFit) -> dict[str, float | None
     if rig.drive_backlash_m > 0:
         # the centre as simulate takes it: relative to the start (the replay's own coordinates
         # place the drive end where the record's samples put it)
-        centre = result.train.backlash_centre_from_start_m(rig.drive_backlash_m) \
-            if hasattr(result.train, "backlash_centre_from_start_m") else 0.0
+        centre = result.train.backlash_centre_from_start_m(rig.drive_backlash_m)
         out.update({"drive_backlash_m": rig.drive_backlash_m,
                     "drive_backlash_centre_m": centre})
     out.update({n: fit.values[n] for n in fit.model.scene})
