@@ -31,53 +31,30 @@ LawParameters LawFromStruct(const vf_law_parameters& c) {
   return p;
 }
 
-namespace {
-
-// A map from the C lists, checked as the config reader checks it (element_config.cc).
-bool SetMap(int count, const double* knots, const double* factors, double period,
-            bool nonnegative_knots, LevelMap* map) {
-  if (count < 0 || count > kMaxMapKnots || (count > 0 && (!knots || !factors))) return false;
-  if (!(period >= 0)) return false;
-  map->count = count;
-  map->period = period;
-  for (int i = 0; i < count; ++i) {
-    if (!(factors[i] > -1) || !std::isfinite(knots[i]) || !std::isfinite(factors[i])) {
-      return false;
-    }
-    if (nonnegative_knots && knots[i] < 0) return false;
-    map->knot[i] = knots[i];
-    map->factor[i] = factors[i];
-  }
-  return map->SetUp();
-}
-
-}  // namespace
-
+// The C lists, checked as the config reader checks them (MakeGmsElements, MakeLevelMap).
 bool SetLawLists(const vf_law_lists* lists, LawParameters* p) {
   if (!lists) return true;
   const int count = lists->gms_count;
-  if (count < 0 || count > kMaxGmsElements) return false;
+  if (count < 0) return false;
   if (count > 0) {
-    if (!lists->gms_stiffness || !lists->gms_weight || !(lists->gms_relaxation_time >= 0)) {
+    if (!lists->gms_stiffness || !lists->gms_weight) return false;
+    if (!MakeGmsElements(lists->gms_stiffness, lists->gms_weight, count,
+                         lists->gms_relaxation_time, &p->gms).ok()) {
       return false;
     }
-    double total = 0.0;
-    for (int i = 0; i < count; ++i) {
-      if (!(lists->gms_stiffness[i] > 0) || !(lists->gms_weight[i] > 0)) return false;
-      p->gms.stiffness[i] = lists->gms_stiffness[i];
-      p->gms.weight[i] = lists->gms_weight[i];
-      total += lists->gms_weight[i];
-    }
-    if (!(std::fabs(total - 1.0) <= 1e-6)) return false;
-    for (int i = 0; i < count; ++i) p->gms.weight[i] /= total;  // as the config reader: 1 in all
-    p->gms.count = count;
-    p->gms.relaxation_time = lists->gms_relaxation_time;
   }
-  return SetMap(lists->position_map_count, lists->position_map_knots,
-                lists->position_map_factors, lists->position_map_period, false,
-                &p->position_map) &&
-         SetMap(lists->velocity_map_count, lists->velocity_map_knots,
-                lists->velocity_map_factors, 0.0, true, &p->velocity_map);
+  for (const bool velocity : {false, true}) {
+    const int n = velocity ? lists->velocity_map_count : lists->position_map_count;
+    const double* knots = velocity ? lists->velocity_map_knots : lists->position_map_knots;
+    const double* factors = velocity ? lists->velocity_map_factors : lists->position_map_factors;
+    if (n > 0 && (!knots || !factors)) return false;
+    LevelMap& map = velocity ? p->velocity_map : p->position_map;
+    if (!MakeLevelMap(knots, factors, n, velocity ? 0.0 : lists->position_map_period, velocity,
+                      &map).ok()) {
+      return false;
+    }
+  }
+  return true;
 }
 
 }  // namespace vibrofriction

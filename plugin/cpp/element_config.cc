@@ -14,7 +14,7 @@ bool RejectAttribute(const char* plugin, const char* attr, double value, const c
 }
 
 // The gms elements: stiffnesses (required), weights (default equal shares; they must sum to 1)
-// and the relaxation time.
+// and the relaxation time, checked by MakeGmsElements (friction_law.h, as the C API's lists).
 static bool ReadGmsElements(const mjModel* m, int instance, const char* plugin, GmsElements* out) {
   std::vector<double> stiffness, weight;
   if (!ReadNumberList(m, instance, plugin, kGmsStiffness, &stiffness) ||
@@ -22,46 +22,40 @@ static bool ReadGmsElements(const mjModel* m, int instance, const char* plugin, 
     return false;
   }
   const int count = static_cast<int>(stiffness.size());
-  if (count < 1 || count > kMaxGmsElements) {
-    return ConfigError("%s: law gms needs 'gms_stiffness', the elements' stiffnesses (N/m), 1 to "
-                       "%d values separated by spaces (it has %d), e.g. gms_stiffness=\"4e7 2e7 "
-                       "1e7\"", plugin, kMaxGmsElements, count);
-  }
-  if (weight.empty()) weight.assign(count, 1.0 / count);
-  if (static_cast<int>(weight.size()) != count) {
+  if (!weight.empty() && static_cast<int>(weight.size()) != count && count >= 1 &&
+      count <= kMaxGmsElements) {
     return ConfigError("%s: 'gms_weight' has %d values and 'gms_stiffness' %d; give one weight "
                        "(share of the friction level) per element, or none for equal shares",
                        plugin, static_cast<int>(weight.size()), count);
   }
-  double total = 0.0;
-  for (int i = 0; i < count; ++i) {
-    if (!(stiffness[i] > 0)) {
-      return RejectAttribute(plugin, kGmsStiffness, stiffness[i], "has a value <= 0; each "
+  GmsElements read;  // (the relaxation time as read; the lists are checked below)
+  if (!ReadNumber(m, instance, plugin, kGmsRelaxationTime, 0.0, &read.relaxation_time)) {
+    return false;
+  }
+  const ListCheck check = MakeGmsElements(stiffness.data(), weight.empty() ? nullptr
+                                          : weight.data(), count, read.relaxation_time, out);
+  switch (check.problem) {
+    case ListProblem::kNone:
+      return true;
+    case ListProblem::kCount:
+      return ConfigError("%s: law gms needs 'gms_stiffness', the elements' stiffnesses (N/m), 1 "
+                         "to %d values separated by spaces (it has %d), e.g. gms_stiffness=\"4e7 "
+                         "2e7 1e7\"", plugin, kMaxGmsElements, count);
+    case ListProblem::kStiffness:
+      return RejectAttribute(plugin, kGmsStiffness, check.value, "has a value <= 0; each "
                              "element's stiffness must be > 0 (N/m)");
-    }
-    if (!(weight[i] > 0)) {
-      return RejectAttribute(plugin, kGmsWeight, weight[i], "has a value <= 0; each element's "
+    case ListProblem::kWeight:
+      return RejectAttribute(plugin, kGmsWeight, check.value, "has a value <= 0; each element's "
                              "share of the level must be > 0");
-    }
-    total += weight[i];
+    case ListProblem::kWeightSum:
+      return RejectAttribute(plugin, kGmsWeight, check.value, "sums to this; the elements' shares "
+                             "of the friction level must sum to 1");
+    case ListProblem::kRelaxation:
+      return RejectAttribute(plugin, kGmsRelaxationTime, check.value,
+                             "must be >= 0 (s; 0: a slipping element is at its level at once)");
+    default:  // (non-finite values: ReadNumberList and ReadNumber refuse them first)
+      return ConfigError("%s: the gms element lists are invalid", plugin);
   }
-  if (std::fabs(total - 1.0) > 1e-6) {
-    return RejectAttribute(plugin, kGmsWeight, total, "sums to this; the elements' shares of the "
-                           "friction level must sum to 1");
-  }
-  GmsElements g;
-  g.count = count;
-  for (int i = 0; i < count; ++i) {
-    g.stiffness[i] = stiffness[i];
-    g.weight[i] = weight[i] / total;  // exactly 1 in all
-  }
-  if (!ReadNumber(m, instance, plugin, kGmsRelaxationTime, 0.0, &g.relaxation_time)) return false;
-  if (g.relaxation_time < 0) {
-    return RejectAttribute(plugin, kGmsRelaxationTime, g.relaxation_time,
-                           "must be >= 0 (s; 0: a slipping element is at its level at once)");
-  }
-  *out = g;
-  return true;
 }
 
 bool ReadLevelMap(const mjModel* m, int instance, const char* plugin, const char* knots_key,
@@ -72,40 +66,37 @@ bool ReadLevelMap(const mjModel* m, int instance, const char* plugin, const char
       !ReadNumberList(m, instance, plugin, factors_key, &factors)) {
     return false;
   }
-  LevelMap map = *out;
-  map.count = 0;
-  if (period_key && !ReadNumber(m, instance, plugin, period_key, 0.0, &map.period)) return false;
+  double period = 0.0;
+  if (period_key && !ReadNumber(m, instance, plugin, period_key, 0.0, &period)) return false;
   if (knots.size() != factors.size()) {
     return ConfigError("%s: '%s' has %d values and '%s' %d; give one factor per knot", plugin,
                        knots_key, static_cast<int>(knots.size()), factors_key,
                        static_cast<int>(factors.size()));
   }
-  if (knots.size() > static_cast<size_t>(kMaxMapKnots)) {
-    return ConfigError("%s: '%s' has %d knots; a map takes at most %d", plugin, knots_key,
-                       static_cast<int>(knots.size()), kMaxMapKnots);
-  }
-  if (period_key && map.period < 0) {
-    return RejectAttribute(plugin, period_key, map.period, "must be >= 0 (0: not periodic)");
-  }
-  map.count = static_cast<int>(knots.size());
-  for (int i = 0; i < map.count; ++i) {
-    map.knot[i] = knots[i];
-    map.factor[i] = factors[i];
-    if (!(factors[i] > -1)) {
-      return RejectAttribute(plugin, factors_key, factors[i], "has a factor <= -1; each must be "
+  const ListCheck check = MakeLevelMap(knots.data(), factors.data(),
+                                       static_cast<int>(knots.size()), period, nonnegative_knots,
+                                       out);
+  switch (check.problem) {
+    case ListProblem::kNone:
+      return true;
+    case ListProblem::kCount:
+      return ConfigError("%s: '%s' has %d knots; a map takes at most %d", plugin, knots_key,
+                         static_cast<int>(knots.size()), kMaxMapKnots);
+    case ListProblem::kPeriod:
+      return RejectAttribute(plugin, period_key ? period_key : knots_key, check.value,
+                             "must be >= 0 (0: not periodic)");
+    case ListProblem::kFactor:
+      return RejectAttribute(plugin, factors_key, check.value, "has a factor <= -1; each must be "
                              "> -1 (the level times 1 + factor stays positive)");
-    }
-    if (nonnegative_knots && knots[i] < 0) {
-      return RejectAttribute(plugin, knots_key, knots[i], "has a knot < 0; the knots are speeds "
-                             "|v| >= 0");
-    }
+    case ListProblem::kNegativeKnot:
+      return RejectAttribute(plugin, knots_key, check.value, "has a knot < 0; the knots are "
+                             "speeds |v| >= 0");
+    case ListProblem::kOrder:
+      return ConfigError("%s: the knots of '%s' must increase%s", plugin, knots_key,
+                         period > 0 ? " and lie within one period" : "");
+    default:  // (non-finite values: ReadNumberList and ReadNumber refuse them first)
+      return ConfigError("%s: the map '%s' is invalid", plugin, knots_key);
   }
-  if (!map.SetUp()) {
-    return ConfigError("%s: the knots of '%s' must increase%s", plugin, knots_key,
-                       map.period > 0 ? " and lie within one period" : "");
-  }
-  *out = map;
-  return true;
 }
 
 int GmsElementCount(const mjModel* m, int instance) {

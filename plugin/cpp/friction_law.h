@@ -66,6 +66,35 @@ struct LevelMap {
   }
 };
 
+// What is wrong with a gms element list or a level map, if anything: one check serves the MJCF
+// config reader (which names the attribute and the value) and the C API (which returns -1).
+enum class ListProblem {
+  kNone,
+  kCount,         // gms: not 1..kMaxGmsElements elements; map: more than kMaxMapKnots knots
+  kNotFinite,     // a value is not a finite number
+  kStiffness,     // a gms stiffness <= 0
+  kWeight,        // a gms weight <= 0
+  kWeightSum,     // the gms weights do not sum to 1 (value: their sum)
+  kRelaxation,    // the gms relaxation time < 0
+  kFactor,        // a map factor <= -1
+  kNegativeKnot,  // a speed map's knot < 0
+  kPeriod,        // a map's period < 0
+  kOrder,         // the map's knots do not increase (or, periodic, leave one period)
+};
+struct ListCheck {
+  ListProblem problem = ListProblem::kNone;
+  double value = 0.0;  // the offending value
+  bool ok() const { return problem == ListProblem::kNone; }
+};
+
+// The gms elements of `count` stiffnesses (N/m), weights (shares of the level, summing to 1
+// within 1e-6, then normalised; null: equal shares) and a relaxation time (s).
+ListCheck MakeGmsElements(const double* stiffness, const double* weight, int count,
+                          double relaxation_time, GmsElements* out);
+// A level map of `count` (knot, factor) pairs (count 0: off); `out` keeps its constant_ends.
+ListCheck MakeLevelMap(const double* knots, const double* factors, int count, double period,
+                       bool nonnegative_knots, LevelMap* out);
+
 // Parameters of one friction element; names follow the Python FrictionParameters.
 struct LawParameters {
   Law law = Law::kDahl;
