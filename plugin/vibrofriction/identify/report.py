@@ -183,7 +183,11 @@ def report_markdown(result: Identification, rig_replay: dict | None = None) -> s
                   f"{ringing.damping_ratio:.3g} and {ringing.amplitude_N:.3g} N at the reversal "
                   f"({100 * ringing.explained:.0f} % of that averaged residual): a resonance "
                   "the friction model lacks -- a compliance in series with the contact, or "
-                  "backlash whose impacts excite it.", ""]
+                  "backlash whose impacts excite it. Neither is a candidate of this (inverse) "
+                  "path, which takes the measured force as it is: a play in a rig's drive, "
+                  "before its dynamometer, is the simulation path's `backlash` candidate; a play "
+                  "or compliance between the measured displacement and the contact is not in "
+                  "the vocabulary yet.", ""]
     lines += ["## The final model in MuJoCo", "",
               "Every fitted value is a field of FrictionParameters / RigParameters, i.e. a config "
               "attribute of the `vibrofriction.friction` plugin (docs/simulation.md, "
