@@ -49,6 +49,8 @@ inline constexpr char kTableAlong[] = "table_along";
 inline constexpr char kTableAcross[] = "table_across";
 // FNV-1a of the four lists' numbers (NumberListChecksum): lets the per-step config check skip them
 inline constexpr char kTableChecksum[] = "table_checksum";
+// the lists the checksum stands for, in its order
+inline constexpr const char* kTableLists[] = {kTableXi, kTableAngle, kTableAlong, kTableAcross};
 }  // namespace keys
 
 // Records the error "<plugin>: attribute '<attr>'="<value>" <rule>" and returns false.

@@ -675,31 +675,25 @@ void PlanarKinematicCoulombForce(const LawParameters& p, const LawInput& in, con
 
 ListCheck MakeGmsElements(const double* stiffness, const double* weight, int count,
                           double relaxation_time, GmsElements* out) {
-  auto problem = [](ListProblem kind, double value) {
-    ListCheck c;
-    c.problem = kind;
-    c.value = value;
-    return c;
-  };
-  if (count < 1 || count > kMaxGmsElements) return problem(ListProblem::kCount, count);
+  if (count < 1 || count > kMaxGmsElements) return {ListProblem::kCount, double(count)};
   GmsElements g;
   g.count = count;
   double total = 0.0;
   for (int i = 0; i < count; ++i) {
     const double w = weight ? weight[i] : 1.0 / count;
     if (!std::isfinite(stiffness[i]) || !std::isfinite(w)) {
-      return problem(ListProblem::kNotFinite, std::isfinite(w) ? stiffness[i] : w);
+      return {ListProblem::kNotFinite, std::isfinite(w) ? stiffness[i] : w};
     }
-    if (!(stiffness[i] > 0)) return problem(ListProblem::kStiffness, stiffness[i]);
-    if (!(w > 0)) return problem(ListProblem::kWeight, w);
+    if (!(stiffness[i] > 0)) return {ListProblem::kStiffness, stiffness[i]};
+    if (!(w > 0)) return {ListProblem::kWeight, w};
     g.stiffness[i] = stiffness[i];
     g.weight[i] = w;
     total += w;
   }
-  if (std::fabs(total - 1.0) > 1e-6) return problem(ListProblem::kWeightSum, total);
+  if (std::fabs(total - 1.0) > 1e-6) return {ListProblem::kWeightSum, total};
   for (int i = 0; i < count; ++i) g.weight[i] /= total;  // exactly 1 in all
   if (!(relaxation_time >= 0) || !std::isfinite(relaxation_time)) {
-    return problem(ListProblem::kRelaxation, relaxation_time);
+    return {ListProblem::kRelaxation, relaxation_time};
   }
   g.relaxation_time = relaxation_time;
   *out = g;
@@ -708,27 +702,21 @@ ListCheck MakeGmsElements(const double* stiffness, const double* weight, int cou
 
 ListCheck MakeLevelMap(const double* knots, const double* factors, int count, double period,
                        bool nonnegative_knots, LevelMap* out) {
-  auto problem = [](ListProblem kind, double value) {
-    ListCheck c;
-    c.problem = kind;
-    c.value = value;
-    return c;
-  };
-  if (count < 0 || count > kMaxMapKnots) return problem(ListProblem::kCount, count);
-  if (!(period >= 0) || !std::isfinite(period)) return problem(ListProblem::kPeriod, period);
+  if (count < 0 || count > kMaxMapKnots) return {ListProblem::kCount, double(count)};
+  if (!(period >= 0) || !std::isfinite(period)) return {ListProblem::kPeriod, period};
   LevelMap map = *out;
   map.count = count;
   map.period = period;
   for (int i = 0; i < count; ++i) {
     if (!std::isfinite(knots[i]) || !std::isfinite(factors[i])) {
-      return problem(ListProblem::kNotFinite, std::isfinite(knots[i]) ? factors[i] : knots[i]);
+      return {ListProblem::kNotFinite, std::isfinite(knots[i]) ? factors[i] : knots[i]};
     }
-    if (!(factors[i] > -1)) return problem(ListProblem::kFactor, factors[i]);
-    if (nonnegative_knots && knots[i] < 0) return problem(ListProblem::kNegativeKnot, knots[i]);
+    if (!(factors[i] > -1)) return {ListProblem::kFactor, factors[i]};
+    if (nonnegative_knots && knots[i] < 0) return {ListProblem::kNegativeKnot, knots[i]};
     map.knot[i] = knots[i];
     map.factor[i] = factors[i];
   }
-  if (!map.SetUp()) return problem(ListProblem::kOrder, 0.0);
+  if (!map.SetUp()) return {ListProblem::kOrder, 0.0};
   *out = map;
   return {};
 }

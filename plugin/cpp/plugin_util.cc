@@ -207,19 +207,16 @@ std::uint64_t NumberListChecksum(std::initializer_list<const std::vector<double>
 }
 
 ConfigFingerprint FingerprintOf(const mjModel* m, int instance, bool checksum_verified) {
-  const int begin = m->plugin_attradr[instance];
-  const int end = instance + 1 < m->nplugin ? m->plugin_attradr[instance + 1] : m->npluginattr;
+  const auto [block, size] = ConfigBlock(m, instance);
   ConfigFingerprint fingerprint;
-  fingerprint.bytes.assign(m->plugin_attr + begin, m->plugin_attr + end);
+  fingerprint.bytes.assign(block, block + size);
   std::vector<std::pair<std::size_t, std::size_t>> skipped;
   const char* checksum = mj_getPluginConfig(m, instance, keys::kTableChecksum);
   if (checksum_verified && checksum && checksum[0]) {
-    for (const char* key : {keys::kTableXi, keys::kTableAngle, keys::kTableAlong,
-                            keys::kTableAcross}) {
+    for (const char* key : keys::kTableLists) {
       const char* value = mj_getPluginConfig(m, instance, key);
       if (!value) continue;
-      const char* block = m->plugin_attr + begin;
-      if (value < block || value >= block + fingerprint.bytes.size()) {  // not in place: all
+      if (value < block || value >= block + size) {  // not in place: all
         skipped.clear();
         break;
       }

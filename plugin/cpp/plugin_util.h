@@ -90,13 +90,19 @@ struct ConfigFingerprint {
 // checksum of its table (otherwise every byte is compared).
 ConfigFingerprint FingerprintOf(const mjModel* m, int instance, bool checksum_verified);
 
+// The instance's config block in m->plugin_attr: its values, each ended by '\0', in the
+// plugin's attribute order.
+inline std::pair<const char*, std::size_t> ConfigBlock(const mjModel* m, int instance) {
+  const int begin = m->plugin_attradr[instance];
+  const int end = instance + 1 < m->nplugin ? m->plugin_attradr[instance + 1] : m->npluginattr;
+  return {m->plugin_attr + begin, static_cast<std::size_t>(end - begin)};
+}
+
 // True when the instance's config matches `fingerprint` in every compared byte (and in size);
 // allocates nothing. Inline: the plugins call it every step.
 inline bool ConfigUnchanged(const mjModel* m, int instance, const ConfigFingerprint& fingerprint) {
-  const int begin = m->plugin_attradr[instance];
-  const int end = instance + 1 < m->nplugin ? m->plugin_attradr[instance + 1] : m->npluginattr;
-  if (static_cast<std::size_t>(end - begin) != fingerprint.bytes.size()) return false;
-  const char* block = m->plugin_attr + begin;
+  const auto [block, size] = ConfigBlock(m, instance);
+  if (size != fingerprint.bytes.size()) return false;
   for (const auto& [from, to] : fingerprint.compared) {
     if (std::memcmp(block + from, fingerprint.bytes.data() + from, to - from) != 0) return false;
   }

@@ -281,6 +281,11 @@ class MachineReplay(SampleGrid):
         ``damping`` joint)."""
         return ("joint_damping_N_s_per_m",) if self.scene.damped_joint else ()
 
+    def fitted_rig(self, values: Mapping[str, float], mass_kg: float) -> RigParameters:
+        """The rig values a machine scene takes: the mass (it has no drive spring, so no drive
+        damping or backlash: NOT_APPLICABLE)."""
+        return replace(self.rig, mass_kg=mass_kg)
+
     def model(self, rig: RigParameters, friction: FrictionParameters,
               scene_values: Mapping[str, float] | None = None,
               outputs: Sequence[str] | None = None) -> mujoco.MjModel:

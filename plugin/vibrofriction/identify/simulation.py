@@ -283,9 +283,7 @@ class SimulationProblem:
         friction = model.friction_parameters(values)
         mass = values.get("mass_kg", replay.rig.mass_kg if replay.mass_known else
                           self.train.rig.mass_kg)
-        rig = replay.fitted_rig(values, mass) if hasattr(replay, "fitted_rig") else \
-            replace(replay.rig, mass_kg=mass,
-                    drive_damping_N_s_per_m=values.get("drive_damping_N_s_per_m", 0.0))
+        rig = replay.fitted_rig(values, mass)
         initial = {n: values[n] for n in model.state if n in values} \
             if replay is self.train else {}
         return rig, friction, initial, {n: values[n] for n in model.scene if n in values}

@@ -7,7 +7,6 @@ measured channel's error) and ``settings``; ``rmse_N``/``relerr_pct`` are of the
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 from pathlib import Path
 from typing import Any
@@ -45,10 +44,7 @@ def _case(result: SimIdentification, fit: SimFit) -> tuple[RigParameters, Any]:
     replay = result.train
     friction = fit.model.friction_parameters(fit.values)
     mass = fit.values.get("mass_kg", replay.rig.mass_kg)
-    rig = replay.fitted_rig(fit.values, mass) if hasattr(replay, "fitted_rig") else \
-        dataclasses.replace(replay.rig, mass_kg=mass,
-                            drive_damping_N_s_per_m=fit.values.get("drive_damping_N_s_per_m",
-                                                                   0.0))
+    rig = replay.fitted_rig(fit.values, mass)
     return rig, friction
 
 
