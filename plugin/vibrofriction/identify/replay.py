@@ -265,8 +265,8 @@ class RigReplay(SampleGrid):
             0.5 * backlash_m * self.initial_play_side
 
     def fitted_rig(self, values: Mapping[str, float], mass_kg: float) -> RigParameters:
-        """The rig with the fitted values: mass, drive damping, backlash (its centre from the
-        record's loaded samples)."""
+        """The rig with the fitted values: mass, drive damping, backlash (placed relative to
+        the record's start: ``backlash_centre_m``)."""
         backlash = values.get("drive_backlash_m", 0.0)
         return replace(self.rig, mass_kg=mass_kg,
                        drive_damping_N_s_per_m=values.get("drive_damping_N_s_per_m", 0.0),
