@@ -159,13 +159,16 @@ def test_with_a_stribeck_curve_the_fit_moves_the_mean_friction_level_not_mu() ->
 
 
 @pytest.mark.parametrize("law, columns", [("coulomb", None), ("dupont", POSITION_ONLY),
-                                          ("dahl", None)],
-                         ids=["coulomb-all-columns", "dupont-position-only", "dahl-all-columns"])
+                                          ("dahl", None), ("lugre", POSITION_ONLY)],
+                         ids=["coulomb-all-columns", "dupont-position-only", "dahl-all-columns",
+                              "lugre-position-only"])
 def test_a_noisy_record_round_trips_within_3_percent(law, columns) -> None:
     """Realistic sensor noise on every column, inputs included (the support's motion is kept
     to its vibration band): every law parameter within 3 %, nothing selected. (Dahl from all
     columns came back +6 % in mu and +7 % in alpha before the channels were weighted by their
-    residuals' effective samples.)"""
+    residuals' effective samples; LuGre from position and drive force alone, v_s +177 % with
+    the support's velocity band-filtered, mu +4 % with it fitted as a steady vibration but
+    without the third Stribeck restart.)"""
     from vibrofriction.synthetic import with_sensor_noise
     record = with_sensor_noise(_record(law, columns))
     result = identify_by_simulation(record, law=law, declared=DECLARED.get(law, ()))
@@ -282,8 +285,8 @@ def test_simulation_on_a_record_with_no_rig_is_one_clear_error(tmp_path, capsys)
 
 def test_vibration_band_keeps_the_vibration_and_drops_the_noise() -> None:
     """A shaker's velocity (4 kHz, a 20-period ramp) measured with white noise: the band keeps
-    the vibration to 1 % of its amplitude and leaves a third of the noise or less, ends
-    included."""
+    the vibration to 1e-3 of its amplitude (measured 5e-5: the cubic envelope's knots go where
+    the ramp is) and leaves a third of the noise or less (measured 0.25), ends included."""
     from vibrofriction.identify.replay import vibration_band
     from vibrofriction.reference import support_motion
     dt, frequency = 1e-5, 4000.0
@@ -293,15 +296,16 @@ def test_vibration_band_keeps_the_vibration_and_drops_the_noise() -> None:
     _, velocity = support_motion(rig_values, t, vibration_from_s=0.02)
     noise = 2e-5 * np.random.default_rng(1).standard_normal(len(t))
     clean = vibration_band(velocity, dt, frequency)
-    assert np.max(np.abs(clean - velocity)) < 0.01 * 0.02
+    assert np.max(np.abs(clean - velocity)) < 1e-3 * 0.02
     kept = vibration_band(velocity + noise, dt, frequency) - clean
     assert np.std(kept) < np.std(noise) / 3
 
 
-def test_a_steady_noisy_vibration_is_kept_to_a_narrower_band() -> None:
-    """A steady 1.5 mm/s vibration under 20 um/s of white noise: the narrowest envelope band
-    whose removal is noise alone leaves under a sixth of the noise (the widest, f/4, a third),
-    the vibration within 2 % of its amplitude."""
+def test_a_steady_noisy_vibration_is_fitted_as_one() -> None:
+    """A steady 1.5 mm/s vibration under 20 um/s of white noise is fitted with one amplitude
+    and phase per harmonic: the noise left is that of 6 values over 10,000 samples,
+    sqrt(6 / 10000) = 0.024 of it (measured 0.023; a band filter at f/64 left 0.09), the
+    vibration within 0.5 % of its amplitude (measured 0.05 %)."""
     from vibrofriction.identify.replay import vibration_band
     from vibrofriction.reference import support_motion
     dt, frequency, amplitude = 1e-5, 4000.0, 1.5e-3
@@ -311,8 +315,25 @@ def test_a_steady_noisy_vibration_is_kept_to_a_narrower_band() -> None:
     _, velocity = support_motion(rig_values, t)
     noise = 2e-5 * np.random.default_rng(2).standard_normal(len(t))
     error = vibration_band(velocity + noise, dt, frequency) - velocity
-    assert np.std(error) < np.std(noise) / 6
-    assert np.max(np.abs(error)) < 0.02 * amplitude
+    assert np.std(error) < 2 * math.sqrt(6 / len(t)) * np.std(noise)
+    assert np.max(np.abs(error)) < 0.005 * amplitude
+
+
+def test_a_vibration_switched_on_at_once_keeps_its_first_sample_and_does_not_ring() -> None:
+    """A simulator's record: the support at rest at the first sample, at full amplitude from
+    the next. The jump is kept as measured (a fit would ring around it: the table's
+    displacement, the velocity's integral, came out 3.4 nm off after the first periods, a
+    step the contact felt), and the rest is the steady fit, within a tenth of the noise."""
+    from vibrofriction.identify.replay import vibration_band
+    dt, frequency, amplitude = 5e-6, 4000.0, 1.5e-3
+    t = dt * np.arange(12000)
+    velocity = amplitude * np.cos(2 * math.pi * frequency * t)
+    velocity[0] = 0.0
+    noise = 2e-5 * np.random.default_rng(3).standard_normal(len(t))
+    kept = vibration_band(velocity + noise, dt, frequency)
+    assert kept[0] == velocity[0] + noise[0]
+    assert np.std(kept[1:] - velocity[1:]) < 0.1 * np.std(noise)
+    assert np.max(np.abs(kept[1:] - velocity[1:])) < 0.01 * amplitude
 
 
 def test_replay_refuses_an_undersampled_vibration_and_a_foreign_timestep() -> None:
@@ -496,7 +517,10 @@ def test_a_stick_slip_record_round_trips_through_multiple_shooting() -> None:
     result = identify_by_simulation(_stick_slip_record(0.1), law="lugre",
                                     declared=("stribeck",))
     assert result.settings["stick_phases"] >= 4
-    assert result.settings["baseline_start"] in ("multiple shooting", "a segmented replay")
+    # (the Stribeck restarts start at the best fit so far, multiple shooting's: from the
+    # shape (1.5, 3), this record's ratio, one ends on the same values 1e-10 lower in RSS)
+    assert result.settings["baseline_start"] in ("multiple shooting", "a segmented replay",
+                                                 "a Stribeck restart")
     assert result.selected == []
     for name in LAW_FIELDS["lugre"]:
         assert result.final.values[name] == pytest.approx(getattr(STICK_SLIP, name),

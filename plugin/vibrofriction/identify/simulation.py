@@ -124,8 +124,11 @@ _STRIBECK_STARTS = 3  # grid points a Stribeck candidate is fitted from
 # kept (its level coordinate too). From a scan's start the contact is far off, the fit flattens
 # the peak on the way (static ratio 1, where v_s has no gradient) and stays there: measured on
 # a noise-free position-only LuGre record (ratio 1.3, v_s 1.9 times the scale), which came back
-# at ratio 1.02; from (1.2, 1) it is exact.
-_STRIBECK_RESTARTS = ((1.2, 1.0), (1.2, 3.0))
+# at ratio 1.02; from (1.2, 1) it is exact. With sensor noise the same record has local optima
+# along the curve's valley a few units of weighted RSS apart: from the first two shapes the fit
+# stopped at ratio 1.21 (mu +4 to +5 %, three noise seeds; the optimum near the truth 3.5 lower
+# in RSS, a ridge 70 higher between them); from (1.5, 3) all three come back within 1.8 %.
+_STRIBECK_RESTARTS = ((1.2, 1.0), (1.2, 3.0), (1.5, 3.0))
 # A stick-slip record's segmented replay (``_segmented_starts``): its scan's shapes, how many
 # of the scan's best points are fitted on it, and with how many evaluations each.
 MIN_SLIPS = 2
