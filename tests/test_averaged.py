@@ -11,7 +11,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from vibrofriction import averaged, planar
+from vibrofriction.robots import averaged
+from vibrofriction.rigs import planar
 from vibrofriction.params import FrictionParameters, RigParameters
 
 # A 0.2 kg part on a plate vibrating at 2 kHz with v_a = 50 mm/s (u0 = 4 um), mu = 0.3,

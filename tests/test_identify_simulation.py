@@ -16,9 +16,10 @@ import numpy as np
 import pytest
 
 import vibrofriction
-from vibrofriction import cli, rig
+from vibrofriction import cli
+from vibrofriction.rigs import rig
 from vibrofriction.commands.simulate import dataset_of
-from vibrofriction.datasets import Dataset, write_dataset
+from vibrofriction.data.datasets import Dataset, write_dataset
 from vibrofriction.identify.replay import Replayer, prepare_replay
 from vibrofriction.identify.simulation import identify_by_simulation
 from vibrofriction.params import FrictionParameters, RigParameters
@@ -166,7 +167,7 @@ def test_a_noisy_record_round_trips_within_3_percent(law, columns) -> None:
     to its vibration band): every law parameter within 3 %, nothing selected. (Dahl from all
     columns came back +6 % in mu and +7 % in alpha before the channels were weighted by their
     residuals' effective samples.)"""
-    from vibrofriction.synthetic import with_sensor_noise
+    from vibrofriction.data.synthetic import with_sensor_noise
     record = with_sensor_noise(_record(law, columns))
     result = identify_by_simulation(record, law=law, declared=DECLARED.get(law, ()))
     assert result.selected == []
@@ -232,7 +233,7 @@ def test_a_simulate_csv_record_with_a_stage_of_vibration_off_round_trips(tmp_pat
     """`vibrofriction simulate --csv` with --set vibration_from_s: the table stands still for
     20 ms (the spring loads, the slider breaks away), then the vibration builds up. Identified
     with the same law: every parameter within 1 %, nothing selected."""
-    from vibrofriction.datasets import read_dataset
+    from vibrofriction.data.datasets import read_dataset
     truth = LAWS["dahl"]
     csv = tmp_path / "staged.csv"
     settings = {"vibration_velocity_amplitude_m_per_s": 1.5e-3, "vibration_from_s": 0.02,
@@ -285,7 +286,7 @@ def test_vibration_band_keeps_the_vibration_and_drops_the_noise() -> None:
     the vibration to 1 % of its amplitude and leaves a third of the noise or less, ends
     included."""
     from vibrofriction.identify.replay import vibration_band
-    from vibrofriction.reference import support_motion
+    from vibrofriction.oracle.reference import support_motion
     dt, frequency = 1e-5, 4000.0
     t = dt * np.arange(5000)
     rig_values = RigParameters(vibration_frequency_Hz=frequency,
@@ -303,7 +304,7 @@ def test_a_steady_noisy_vibration_is_kept_to_a_narrower_band() -> None:
     whose removal is noise alone leaves under a sixth of the noise (the widest, f/4, a third),
     the vibration within 2 % of its amplitude."""
     from vibrofriction.identify.replay import vibration_band
-    from vibrofriction.reference import support_motion
+    from vibrofriction.oracle.reference import support_motion
     dt, frequency, amplitude = 1e-5, 4000.0, 1.5e-3
     t = dt * np.arange(10000)
     rig_values = RigParameters(vibration_frequency_Hz=frequency,
@@ -334,8 +335,8 @@ def test_a_vibrating_sensor_record_is_replayed_on_a_grid_that_slides_along_the_v
     would repeat every period (its discretization error would not average out); the replay
     takes N + 0.382 steps a period and reads the samples between steps. A record a simulator
     made keeps its own step."""
-    from vibrofriction import synthetic
-    from vibrofriction.rig import STEP_PHASE_SLIDE
+    from vibrofriction.data import synthetic
+    from vibrofriction.rigs.rig import STEP_PHASE_SLIDE
     record = synthetic.lab_record(synthetic.lab_scenario(None))
     replay = prepare_replay(record)
     period_steps = 1.0 / (record.metadata.vibration_frequency_Hz * replay.timestep_s)
@@ -364,7 +365,7 @@ def test_the_true_values_replay_a_strongly_vibrated_lab_record_to_its_noise():
     force misses the record by its sensor noise (0.05 N) and its position by a few nm (noise
     1 nm). On a grid repeating every period the slider sat 33 nm behind the record from the
     vibration's start on, 3.2e-8 m rms (docs/physics.md)."""
-    from vibrofriction import synthetic
+    from vibrofriction.data import synthetic
     scenario = replace(synthetic.lab_scenario(None), duration_s=0.1)
     record = synthetic.lab_record(scenario)
     replay = prepare_replay(record)
@@ -507,7 +508,7 @@ def test_a_vibrometer_showing_only_noise_leaves_the_support_still() -> None:
     """A support that does not vibrate, measured by a noisy vibrometer: its noise is not
     replayed as motion (it would dither the contact); a vibration of 3 noise sd (twice the
     threshold) is kept."""
-    from vibrofriction import synthetic
+    from vibrofriction.data import synthetic
     still = synthetic.with_sensor_noise(_stick_slip_record(0.03))
     replay = prepare_replay(still)
     assert not replay.vibrating
@@ -521,7 +522,7 @@ def test_a_vibrometer_showing_only_noise_leaves_the_support_still() -> None:
 def test_no_stick_phases_without_slips_or_on_a_vibrating_support() -> None:
     """A noisy record of a slider that never slips (the drive end at 10 um/s loads the spring
     to 10 % of breakaway), and a vibrating record, are not cut into segments."""
-    from vibrofriction import synthetic
+    from vibrofriction.data import synthetic
     from vibrofriction.identify.replay import stick_phase_steps
     creeping = replace(STICK_SLIP_RIG, drive_velocity_m_per_s=1e-5)
     run = rig.simulate(creeping, STICK_SLIP, timestep_s=2e-5, duration_s=0.1)

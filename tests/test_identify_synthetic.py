@@ -1,6 +1,6 @@
 """Identification on generated rig records with an undeclared effect (issue 4, item 5).
 
-The records come from vibrofriction.synthetic: the scipy reference model (independent of the
+The records come from vibrofriction.data.synthetic: the scipy reference model (independent of the
 plugin's C++ laws that identify fits with) plus the effect plus realistic sensor noise. Each
 training record has a held-out partner from the same rig pulled at another drive velocity
 (0.7 instead of 1 mm/s) with other noise. Records are 50 ms at 100 kHz (200 vibration periods),
@@ -16,8 +16,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vibrofriction import cli, synthetic
-from vibrofriction.datasets import read_dataset, write_dataset
+from vibrofriction import cli
+from vibrofriction.data import synthetic
+from vibrofriction.data.datasets import read_dataset, write_dataset
 from vibrofriction.identify import EFFECTS, identify
 from vibrofriction.identify.model import INVERSE_EFFECTS
 from vibrofriction.identify.report import report_json, rig_replay

@@ -11,8 +11,9 @@ from pathlib import Path
 
 import pytest
 
-from vibrofriction import averaged, planar, rig
-from vibrofriction._native import _LawParameters
+from vibrofriction.robots import averaged
+from vibrofriction.rigs import planar, rig
+from vibrofriction.laws._native import _LawParameters
 from vibrofriction.params import LAWS, LIMITS, FrictionParameters
 from vibrofriction.vocabulary import (ALL_ELEMENTS, ALL_LAWS, FRICTION_TERMS, LAW_STRUCT_FIELDS,
                                       MAX_GMS_ELEMENTS, MAX_MAP_KNOTS, PAPER_LAWS, TERMS_BY_NAME, element_keys)

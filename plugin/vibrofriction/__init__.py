@@ -8,7 +8,7 @@ Where things live:
   identification ....... vibrofriction/identify/ (machines in closed loop: machine_replay.py,
                          mjcf_models/emps/)
 """
-from ._native import MujocoVersionMismatch, check_mujoco_version, load
+from .laws._native import MujocoVersionMismatch, check_mujoco_version, load
 from .params import (LAWS, FrictionParameters, ParameterError, RigParameters, default_friction)
 
 __version__ = "0.1.0"

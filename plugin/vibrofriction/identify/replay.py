@@ -44,8 +44,8 @@ from mujoco import rollout as mj_rollout
 from scipy.interpolate import make_interp_spline
 from scipy.signal import butter, sosfiltfilt
 
-from .. import rig as rig_module
-from ..datasets import Dataset, smoothed_derivative
+from ..rigs import rig as rig_module
+from ..data.datasets import Dataset, smoothed_derivative
 from ..errors import InputError
 from ..params import FrictionParameters, RigParameters
 

@@ -27,7 +27,7 @@ from typing import Any, Callable, Iterator, Mapping, NoReturn, Sequence
 
 import numpy as np
 
-from .errors import InputError
+from ..errors import InputError
 
 # Known columns, in the order they are written.
 COLUMNS = (

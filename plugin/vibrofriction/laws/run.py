@@ -13,8 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._native import _LawLists, _LawParameters, load
-from .params import PAPER_NORMAL_FORCE_N, FrictionParameters, ParameterError
-from .vocabulary import ALL_LAWS, FRICTION_TERMS
+from ..params import PAPER_NORMAL_FORCE_N, FrictionParameters, ParameterError
+from ..vocabulary import ALL_LAWS, FRICTION_TERMS
 
 
 @dataclass(frozen=True)

@@ -34,13 +34,13 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from ._native import load
+from ..laws._native import load
 from .averaged import AveragedTable, Vibration, build_table
 from .feeder_map import FeederMap, build_map
-from .feeder_reference import Feeder
-from .params import FrictionParameters, ParameterError
-from .robots import SceneRun, run_scene
-from .robots import initial_state as robots_initial_state
+from ..oracle.feeder_reference import Feeder
+from ..params import FrictionParameters, ParameterError
+from .scenes import SceneRun, run_scene
+from .scenes import initial_state as robots_initial_state
 
 GRAVITY_M_PER_S2 = 9.81
 MODES = ("resolved", "robot")

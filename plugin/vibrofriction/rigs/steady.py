@@ -30,8 +30,8 @@ import numpy as np
 from mujoco import rollout as mj_rollout
 
 from . import rig as rig_module
-from .params import FrictionParameters, ParameterError, RigParameters, _plain
-from .summary import RunSummary
+from ..params import FrictionParameters, ParameterError, RigParameters, _plain
+from ..summary import RunSummary
 
 DEFAULT_TOLERANCE = 1e-3
 WINDOW_TARGET_S = 0.04

@@ -14,7 +14,7 @@ deflection rate ż comes from a Python function ``law(z, v_r, params) -> zdot`` 
 
 Example::
 
-    from vibrofriction.python_law import dahl_zdot, simulate_python_law
+    from .python_law import dahl_zdot, simulate_python_law
     run = simulate_python_law(rig, friction, dahl_zdot, timestep_s=1e-6)
 
 Differences from the native plugin, and the cost:
@@ -42,7 +42,7 @@ import numpy as np
 from mujoco import rollout as mj_rollout
 
 from . import rig as rig_module
-from .params import FrictionParameters, ParameterError, RigParameters, default_friction
+from ..params import FrictionParameters, ParameterError, RigParameters, default_friction
 
 FRICTION_ACTUATOR = "friction"
 FRICTION_SENSOR = "friction_state"

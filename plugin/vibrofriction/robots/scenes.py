@@ -10,7 +10,7 @@ rendering.
   and the parts' stick-slip within each period. ``feeder.xml`` resolves it (dt = 10 us,
   vibrofriction.planar); ``feeder_map.xml`` runs free parts on the still track at dt = 1 ms
   with vibrofriction.contact_feeder and the map :func:`feeder_map` makes from the exact
-  reference (vibrofriction.feeder_reference).
+  reference (vibrofriction.oracle.feeder_reference).
 
 The vibration can be switched on and off within a run through ctrl (0 off, 1 on): the resolved
 scenes' shaker and the averaged element both take it (``use_ctrl``).
@@ -28,12 +28,12 @@ import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
-from ._native import load
+from ..laws._native import load
 from .averaged import AveragedTable, Vibration, build_table
 from .feeder_map import FeederMap, build_map
-from .feeder_reference import Feeder
-from .params import FrictionParameters, ParameterError
-from .rig import MJCF_DIR, sensor_columns
+from ..oracle.feeder_reference import Feeder
+from ..params import FrictionParameters, ParameterError
+from ..rigs.rig import MJCF_DIR, sensor_columns
 
 ROBOTS_DIR = MJCF_DIR / "robots"
 GRAVITY_M_PER_S2 = 9.81
@@ -99,7 +99,7 @@ def _feeder_map_file() -> str:
         f"     feeder_map.xml: track vibrating {f.amplitude_m * 1e6:.4g} um along a throw line at "
         f"{math.degrees(f.throw_angle_rad):g} deg, {f.frequency_Hz:g} Hz\n"
         f"     (Gamma = {f.throw_number:.3g}), mu = {f.friction_coefficient:g}; made from the exact "
-        "reference, vibrofriction.feeder_reference.\n"
+        "reference, vibrofriction.oracle.feeder_reference.\n"
         f"     The parts convey at {the_map.conveying_velocity_m_per_s * 1e3:.4f} mm/s. -->\n"
         "<mujoco>\n  <extension>\n    <plugin plugin=\"vibrofriction.contact_feeder\">\n"
         f"{instances}\n    </plugin>\n  </extension>\n</mujoco>\n")

@@ -51,8 +51,8 @@ from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 from scipy.signal import lfilter
 
-from .params import VIBRATION_RAMP_PERIODS, FrictionParameters, ParameterError, RigParameters
-from .summary import RunSummary, summarize
+from ..params import VIBRATION_RAMP_PERIODS, FrictionParameters, ParameterError, RigParameters
+from ..summary import RunSummary, summarize
 
 # LSODA switches between Adams (non-stiff) and BDF (stiff) by itself: the contact is mildly stiff
 # at the paper's parameters (2 kHz resonance) and very stiff with heavy bristle damping.

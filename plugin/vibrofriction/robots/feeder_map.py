@@ -4,7 +4,7 @@ A light part on a feeder does not average like a heavy body: it sticks, slips an
 each period, and that stick-slip is what conveys it. At robot timesteps the track is simulated
 still, and `vibrofriction.contact_feeder` applies, along the conveying direction, the mean
 friction the vibrating track would give the part at its mean velocity. This module makes that
-map from the exact event-driven reference (`vibrofriction.feeder_reference`):
+map from the exact event-driven reference (`vibrofriction.oracle.feeder_reference`):
 
 * a constant push a along the track (per unit mass) gives a periodic motion with mean
   relative velocity V(a), at which the mean friction per unit mass is -a;
@@ -31,8 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .feeder_reference import Feeder, convey
-from .params import ParameterError
+from ..oracle.feeder_reference import Feeder, convey
+from ..params import ParameterError
 
 # Pushes over mu g: dense where the map bends near the ends (one-way sliding sets in) and
 # uniform between (its kinks where flight or backward slip start and stop move with Gamma).

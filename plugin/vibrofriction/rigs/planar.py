@@ -24,12 +24,12 @@ import numpy as np
 from mujoco import rollout as mj_rollout
 from scipy import special
 
-from ._native import load
-from .laws import _as_c_array, _c_parameters, _normal_argument, _time_argument
-from .params import PAPER_NORMAL_FORCE_N, FrictionParameters, ParameterError, RigParameters
+from ..laws._native import load
+from ..laws.run import _as_c_array, _c_parameters, _normal_argument, _time_argument
+from ..params import PAPER_NORMAL_FORCE_N, FrictionParameters, ParameterError, RigParameters
 from .rig import MJCF_DIR, default_times, initial_state, sensor_slices, set_plugin_config
-from .summary import averaging_window
-from .vocabulary import FRICTION_TERMS, config_values, element_keys
+from ..summary import averaging_window
+from ..vocabulary import FRICTION_TERMS, config_values, element_keys
 
 PLANAR_RIG_PATH = MJCF_DIR / "robots" / "planar_rig_resolved.xml"
 AVERAGED_RIG_PATH = MJCF_DIR / "robots" / "planar_rig_averaged.xml"

@@ -8,7 +8,7 @@ only the period mean of the friction force, a function of V alone:
     F(V) = mu F_N R f(|V| / v_a, angle(V, e)) + sigma2 V.
 
 :func:`build_table` computes f from the resolved planar law itself (the plugin's C++ code,
-driven kinematically by :func:`vibrofriction.planar.run_planar_law`: the heavy-body limit, in
+driven kinematically by :func:`vibrofriction.rigs.planar.run_planar_law`: the heavy-body limit, in
 which the body's velocity ripple over a period is negligible) on a grid of xi = |V|/v_a and of
 the angle of V from the vibration axis, and :class:`AveragedTable` turns it into the config of
 the ``vibrofriction.averaged`` plugin, which applies F implicitly at robot timesteps.
@@ -28,9 +28,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .params import FrictionParameters, ParameterError
-from .planar import check_planar, run_planar_law
-from .vocabulary import element_keys
+from ..params import FrictionParameters, ParameterError
+from ..rigs.planar import check_planar, run_planar_law
+from ..vocabulary import element_keys
 
 # FrictionParameters field -> MJCF config key of vibrofriction.averaged (vocabulary.FRICTION_TERMS):
 # the law's other terms are not keys there, their effect is in the table.

@@ -14,11 +14,11 @@ from dataclasses import replace
 from typing import Any
 
 from . import rig as rig_module
-from .errors import InputError
-from .params import FrictionParameters, RigParameters, as_dict
+from ..errors import InputError
+from ..params import FrictionParameters, RigParameters, as_dict
 from .steady import (DEFAULT_TOLERANCE, MIN_WINDOWS, Convergence, SteadyRun, convergence_of_run,
                      run_until_steady)
-from .summary import RunSummary
+from ..summary import RunSummary
 
 POINT_KEYS = ("vibration_velocity_amplitude_m_per_s", "kappa", "mean_drive_force_N", "ratio",
               "mean_friction_force_N", "friction_min_N", "friction_max_N", "sign_change")
@@ -72,7 +72,7 @@ def sweep(rig: RigParameters, friction: FrictionParameters, amplitudes: list[flo
     if scheduler is None:
         results = run_cases(cases, nthread=nthread, progress=report, **settings)
     else:
-        from .study.sweep import dask_map
+        from ..study.sweep import dask_map
         if duration_s is not None:  # one timestep and window for all, as locally
             if timestep_s is None:
                 settings["timestep_s"] = min(rig_module.recommended_timestep(r)

@@ -15,17 +15,17 @@ import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
-from ._native import load
-from .params import (VIBRATION_RAMP_PERIODS, FrictionParameters, ParameterError, RigParameters,
-                     _plain)
-from .summary import RunSummary, summarize
-from .vocabulary import MJCF_KEYS as VOCABULARY_MJCF_KEYS
-from .vocabulary import config_values
+from ..laws._native import load
+from ..params import (VIBRATION_RAMP_PERIODS, FrictionParameters, ParameterError, RigParameters,
+                      _plain)
+from ..summary import RunSummary, summarize
+from ..vocabulary import MJCF_KEYS as VOCABULARY_MJCF_KEYS
+from ..vocabulary import config_values
 
 if TYPE_CHECKING:
     from .steady import Convergence
 
-MJCF_DIR = Path(__file__).resolve().parent / "mjcf_models"
+MJCF_DIR = Path(__file__).resolve().parents[1] / "mjcf_models"
 RIG_DIR = MJCF_DIR / "rig"
 DEFAULT_TIMESTEP_S = 1e-5
 
@@ -370,5 +370,5 @@ def _cpu_count() -> int:
 
 def progress_printer(label: str) -> Callable[[int, int], None]:
     """A progress report on stderr (``progress.progress_bar``)."""
-    from .progress import progress_bar
+    from ..progress import progress_bar
     return progress_bar(label)

@@ -1,7 +1,7 @@
 """Rig records with an undeclared effect hidden in them, for testing identification.
 
 The generator is independent of the plugin: motion and forces come from the scipy reference
-model (``vibrofriction.reference``, which re-derives every law and effect from its equations),
+model (``vibrofriction.oracle.reference``, which re-derives every law and effect from its equations),
 never from the C++ laws that ``identify`` fits with. Realistic sensor noise is then added:
 
 * force sensor (piezo, charge amplifier): white Gaussian noise ``force_N`` and 16-bit ADC
@@ -17,7 +17,7 @@ The base scenario is the paper's rig (Gutowski & Leus 2012: m = 0.5 kg, F_N = 55
 k_t = 80 N/um, f = 4 kHz) with a LuGre contact, pulled at ``BASE_RIG.drive_velocity_m_per_s``
 over a table vibrating at v_a = 20 mm/s (kappa = 20: the friction force reverses every
 vibration half-period, so direction-, velocity- and phase-dependent effects all show).
-``python -m vibrofriction.synthetic --effect asymmetry --out DIR`` writes one record.
+``python -m vibrofriction.data.synthetic --effect asymmetry --out DIR`` writes one record.
 """
 from __future__ import annotations
 
@@ -31,8 +31,9 @@ from typing import Mapping
 import numpy as np
 
 from .datasets import Dataset, DatasetMetadata, write_dataset
-from .params import PAPER_NORMAL_FORCE_N, FrictionParameters, ParameterError, RigParameters
-from .reference import drive_spring_force_N, first_order_lag, simulate_reference, support_motion
+from ..params import PAPER_NORMAL_FORCE_N, FrictionParameters, ParameterError, RigParameters
+from ..oracle.reference import (drive_spring_force_N, first_order_lag, simulate_reference,
+                               support_motion)
 
 # The rig of the paper, pulled faster than in its figs. 7-12 (1 mm/s instead of 0.5 mm/s) so
 # that a 0.08 s record crosses several wavelengths of a position ripple.
@@ -197,7 +198,7 @@ def generate(scenario: Scenario, name: str = "synthetic", description: str = "")
         drive_velocity_m_per_s=rig.drive_velocity_m_per_s,
         vibration_frequency_Hz=rig.vibration_frequency_Hz, normal_force_N=rig.normal_force_N,
         sample_rate_Hz=scenario.sample_rate_Hz,
-        source="vibrofriction.synthetic (scipy reference model + sensor noise)")
+        source="vibrofriction.data.synthetic (scipy reference model + sensor noise)")
     return Dataset(name=name, columns=columns, metadata=metadata)
 
 
@@ -271,7 +272,7 @@ def _check_effect(effect: str) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m vibrofriction.synthetic",
+        prog="python -m vibrofriction.data.synthetic",
         description="Write a synthetic rig record (dataset format) with one hidden effect.")
     parser.add_argument("--effect", default="none",
                         help=f"none or one of: {', '.join(EFFECTS)}")

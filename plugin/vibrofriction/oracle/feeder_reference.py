@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
-from .params import ParameterError
+from ..params import ParameterError
 
 GRAVITY_M_PER_S2 = 9.81
 
@@ -167,7 +167,7 @@ def convey(feeder: Feeder, *, push_m_per_s2: float = 0.0, start_phase_rad: float
     0. `push_m_per_s2`: a constant force per unit mass on the block along the track (a
     pusher, a slope's pull); |push| < mu g, else the block has no periodic motion. At the
     periodic motion the mean friction per unit mass is -push: this gives the feeder map's mean
-    force against the mean velocity (vibrofriction.feeder_map). After `settle_periods`, windows of `window_periods` (24: period-2, -3, -4, -6 motions
+    force against the mean velocity (vibrofriction.robots.feeder_map). After `settle_periods`, windows of `window_periods` (24: period-2, -3, -4, -6 motions
     average out) follow until two successive window means of the relative velocity agree within
     `tolerance` x A w cos(beta), or `max_periods` (then `converged` is False); the last
     window's mean is returned. Switching times are bracketed on `samples_per_period` points a

@@ -13,7 +13,7 @@ import math
 import numpy as np
 from scipy.special import ellipk
 
-from .params import FrictionParameters, RigParameters
+from ..params import FrictionParameters, RigParameters
 
 
 def _out(value: np.ndarray):

@@ -19,8 +19,8 @@ SUPPORTED_MUJOCO = ">=3.17,<4.1"
 
 
 def library_path() -> Path:
-    """Absolute path of the plugin library inside the installed package."""
-    return Path(__file__).resolve().parent / LIBRARY_NAME
+    """Absolute path of the plugin library at the root of the installed package."""
+    return Path(__file__).resolve().parents[1] / LIBRARY_NAME
 
 
 def version_mismatch(compiled: str, runtime: str) -> str | None:
@@ -38,7 +38,7 @@ def register() -> None:
     """Load the plugin library into MuJoCo (mujoco turns an exception here into a warning)."""
     import mujoco  # (mid-import when mujoco calls this: its functions are already defined)
 
-    from . import _build_info
+    from .. import _build_info
 
     message = version_mismatch(_build_info.MUJOCO_VERSION, mujoco.mj_versionString())
     if message:
