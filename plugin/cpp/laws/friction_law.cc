@@ -1,4 +1,4 @@
-#include "friction_law.h"
+#include "laws/friction_law.h"
 
 #include <algorithm>
 #include <cmath>

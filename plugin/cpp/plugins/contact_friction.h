@@ -31,9 +31,9 @@
 
 #include <mujoco/mujoco.h>
 
-#include "averaged_friction.h"
-#include "friction_law.h"
-#include "plugin_util.h"
+#include "common/plugin_util.h"
+#include "laws/friction_law.h"
+#include "plugins/averaged_friction.h"
 
 namespace vibrofriction {
 

@@ -5,8 +5,8 @@
 
 #include <mujoco/mujoco.h>
 
-#include "friction_law.h"
-#include "plugin_util.h"
+#include "common/plugin_util.h"
+#include "laws/friction_law.h"
 
 namespace vibrofriction {
 

@@ -1,4 +1,4 @@
-#include "planar_friction.h"
+#include "plugins/planar_friction.h"
 
 #include <cerrno>
 #include <cmath>
@@ -7,9 +7,9 @@
 #include <cstdlib>
 #include <utility>
 
-#include "c_api.h"
-#include "element_config.h"
-#include "plugin_util.h"
+#include "c_api/c_api.h"
+#include "common/element_config.h"
+#include "common/plugin_util.h"
 
 namespace vibrofriction {
 namespace {

@@ -1,4 +1,4 @@
-#include "state_sensor.h"
+#include "plugins/state_sensor.h"
 
 #include <cstring>
 #include <memory>
@@ -7,10 +7,10 @@
 
 #include <mujoco/mujoco.h>
 
-#include "averaged_friction.h"
-#include "friction_element.h"
-#include "planar_friction.h"
-#include "plugin_util.h"
+#include "common/plugin_util.h"
+#include "plugins/averaged_friction.h"
+#include "plugins/friction_element.h"
+#include "plugins/planar_friction.h"
 
 namespace vibrofriction {
 namespace {

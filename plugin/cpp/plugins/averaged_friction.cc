@@ -1,4 +1,4 @@
-#include "averaged_friction.h"
+#include "plugins/averaged_friction.h"
 
 #include <algorithm>
 #include <cctype>
@@ -8,8 +8,8 @@
 #include <cstring>
 #include <utility>
 
-#include "element_config.h"
-#include "plugin_util.h"
+#include "common/element_config.h"
+#include "common/plugin_util.h"
 
 namespace vibrofriction {
 namespace {

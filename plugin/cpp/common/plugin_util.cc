@@ -1,4 +1,4 @@
-#include "plugin_util.h"
+#include "common/plugin_util.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -11,7 +11,7 @@
 #include <type_traits>
 #include <vector>
 
-#include "element_config.h"
+#include "common/element_config.h"
 
 namespace vibrofriction {
 namespace {

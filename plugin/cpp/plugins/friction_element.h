@@ -18,10 +18,10 @@
 
 #include <mujoco/mujoco.h>
 
-#include "plugin_util.h"
+#include "common/plugin_util.h"
 
-#include "element_config.h"
-#include "friction_law.h"
+#include "common/element_config.h"
+#include "laws/friction_law.h"
 
 namespace vibrofriction {
 

@@ -1,9 +1,9 @@
-#include "element_config.h"
+#include "common/element_config.h"
 
 #include <cmath>
 #include <vector>
 
-#include "plugin_util.h"
+#include "common/plugin_util.h"
 
 namespace vibrofriction {
 

@@ -2,13 +2,13 @@
 // (vibrofriction.load() calls mj_loadPluginLibrary on it).
 #include <mujoco/mjplugin.h>
 
-#include "averaged_friction.h"  // vibrofriction.planar, vibrofriction.averaged
-#include "contact_friction.h"
-#include "friction_element.h"
-#include "lagged_tendon.h"
-#include "sampled_pd.h"
-#include "state_sensor.h"
-#include "support_motion.h"
+#include "plugins/averaged_friction.h"  // vibrofriction.planar, vibrofriction.averaged
+#include "plugins/contact_friction.h"
+#include "plugins/friction_element.h"
+#include "plugins/lagged_tendon.h"
+#include "plugins/sampled_pd.h"
+#include "plugins/state_sensor.h"
+#include "plugins/support_motion.h"
 
 mjPLUGIN_LIB_INIT(vibrofriction) {
   vibrofriction::FrictionElement::RegisterPlugin();

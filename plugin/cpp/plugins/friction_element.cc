@@ -1,4 +1,4 @@
-#include "friction_element.h"
+#include "plugins/friction_element.h"
 
 #include <cmath>
 #include <cstdint>
@@ -6,8 +6,8 @@
 #include <utility>
 #include <vector>
 
-#include "element_config.h"
-#include "plugin_util.h"
+#include "common/element_config.h"
+#include "common/plugin_util.h"
 
 namespace vibrofriction {
 namespace {

@@ -1,10 +1,10 @@
-#include "sampled_pd.h"
+#include "plugins/sampled_pd.h"
 
 #include <algorithm>
 #include <cmath>
 
-#include "element_config.h"  // RejectAttribute
-#include "plugin_util.h"
+#include "common/element_config.h"  // RejectAttribute
+#include "common/plugin_util.h"
 
 namespace vibrofriction {
 namespace {

@@ -1,11 +1,11 @@
-#include "support_motion.h"
+#include "plugins/support_motion.h"
 
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <utility>
 
-#include "plugin_util.h"
+#include "common/plugin_util.h"
 
 namespace vibrofriction {
 namespace {

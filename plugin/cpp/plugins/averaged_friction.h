@@ -32,10 +32,10 @@
 
 #include <mujoco/mujoco.h>
 
-#include "plugin_util.h"
+#include "common/plugin_util.h"
 
-#include "friction_law.h"
-#include "planar_friction.h"
+#include "laws/friction_law.h"
+#include "plugins/planar_friction.h"
 
 namespace vibrofriction {
 

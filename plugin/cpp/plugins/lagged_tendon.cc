@@ -1,9 +1,9 @@
-#include "lagged_tendon.h"
+#include "plugins/lagged_tendon.h"
 
 #include <cmath>
 
-#include "element_config.h"  // RejectAttribute
-#include "plugin_util.h"
+#include "common/element_config.h"  // RejectAttribute
+#include "common/plugin_util.h"
 
 namespace vibrofriction {
 namespace {

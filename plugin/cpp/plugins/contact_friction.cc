@@ -1,13 +1,13 @@
-#include "contact_friction.h"
+#include "plugins/contact_friction.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <utility>
 
-#include "averaged_friction.h"
-#include "element_config.h"
-#include "plugin_util.h"
+#include "common/element_config.h"
+#include "common/plugin_util.h"
+#include "plugins/averaged_friction.h"
 
 namespace vibrofriction {
 namespace {

@@ -21,7 +21,7 @@
 
 #include <mujoco/mujoco.h>
 
-#include "plugin_util.h"
+#include "common/plugin_util.h"
 
 namespace vibrofriction {
 

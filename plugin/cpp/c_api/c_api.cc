@@ -1,10 +1,10 @@
-#include "c_api.h"
+#include "c_api/c_api.h"
 
 #include <cmath>
 
 #include <mujoco/mujoco.h>
 
-#include "friction_law.h"
+#include "laws/friction_law.h"
 
 namespace vibrofriction {
 
