@@ -277,7 +277,7 @@ def test_a_table_edited_after_its_checksum_was_made_is_refused(checksum, named):
     assert averaged.table_checksum(*(config[key] for key in TABLE_KEYS)) == config["table_checksum"]
     _spec_with(config).compile()  # the stated checksum is the plugin's
     config["table_checksum"] = checksum
-    with pytest.raises(ValueError, match=named + ".*make it again with vibrofriction.averaged"
+    with pytest.raises(ValueError, match=named + ".*make it again with vibrofriction.robots.averaged"
                        ".build_table, or remove 'table_checksum'"):
         _spec_with(config).compile()
 

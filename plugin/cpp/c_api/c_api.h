@@ -1,6 +1,6 @@
 // C API of the friction laws for Python (ctypes): the same code the MuJoCo plugin runs, driven
 // along a recorded or prescribed relative-velocity history (identification, kinematic limits,
-// hysteresis plots). Keep the struct layout in sync with vibrofriction/_native.py.
+// hysteresis plots). Keep the struct layout in sync with vibrofriction/laws/_native.py.
 #ifndef VIBROFRICTION_C_API_H_
 #define VIBROFRICTION_C_API_H_
 
@@ -60,7 +60,7 @@ VF_EXPORT int vf_run_law_with_lists(const vf_law_parameters* params, const vf_la
                                     const double* position, const double* normal_force,
                                     const double* z0, double* force_out, double* deflection_out);
 
-// The planar law (plugin/cpp/planar_friction.cc) along a prescribed velocity history, same step
+// The planar law (plugins/planar_friction.cc) along a prescribed velocity history, same step
 // order as vf_run_law. Coulomb is kinematic (no stick solve). Effects other than the normal-load
 // modulation must be 0. normal_force may be NULL. Writes fx, fy (N) and zx, zy (m) [n].
 // Returns 0, or -1 on bad arguments.

@@ -70,7 +70,7 @@ bool CheckIntegrator(const mjModel* m, const char* plugin);
 
 // FNV-1a (64 bit) over each list's length and then its numbers' bit patterns, least significant
 // byte first: the `table_checksum` an averaged table states for its lists (written by
-// vibrofriction/averaged.py, checked when the config is read).
+// vibrofriction/robots/averaged.py, checked when the config is read).
 std::uint64_t NumberListChecksum(std::initializer_list<const std::vector<double>*> lists);
 
 // Config bytes of an instance, and what of them the per-step check compares. Rollout and batch

@@ -218,7 +218,7 @@ double KinematicCoulombForce(const LawParameters& p, const LawInput& in);
 
 // ---- Planar (isotropic) laws: vector velocity v = (v_x, v_y), vector deflection z ----------------
 // The 1D laws written for vectors so that they coincide with the functions above when v and z
-// lie on one axis (plugin/cpp/planar_friction.h has the equations). The levels use the speed
+// lie on one axis (plugins/planar_friction.h has the equations). The levels use the speed
 // |v| (set LawInput::velocity = |v|); asymmetry, position ripple and force offset have no
 // isotropic meaning and are ignored (the planar plugin rejects them). Normal-load modulation
 // applies as in 1D.

@@ -251,7 +251,7 @@ bool ReadAveragedTable(const mjModel* m, int instance, const char* plugin,
     return false;
   }
   if (velocity_amplitude > 0) {
-    const char* fix = "; generate the table with vibrofriction.averaged.build_table";
+    const char* fix = "; generate the table with vibrofriction.robots.averaged.build_table";
     if (t.xi.size() < 2 || t.xi[0] != 0.0) {
       ConfigError("%s: attribute 'table_xi' needs at least 2 increasing values starting at 0%s",
                   plugin, fix);
@@ -300,8 +300,9 @@ bool ReadAveragedTable(const mjModel* m, int instance, const char* plugin,
     if (!hex16 || stated != actual) {
       ConfigError("%s: attribute '%s'=\"%.40s\" is not the checksum of the table's values "
                   "(%016llx): the table was edited after it was made; make it again with "
-                  "vibrofriction.averaged.build_table, or remove '%s'", plugin, kTableChecksum,
-                  checksum, static_cast<unsigned long long>(actual), kTableChecksum);
+                  "vibrofriction.robots.averaged.build_table, or remove '%s'", plugin,
+                  kTableChecksum, checksum, static_cast<unsigned long long>(actual),
+                  kTableChecksum);
       return false;
     }
   }

@@ -5,7 +5,7 @@
 //   F(V) = mu F_N R f(|V|/v_a, angle of V from the vibration axis) + sigma2 V,
 // with f a table of the mean force over mu F_N in the vibration frame (components along and
 // across the vibration axis), precomputed from the resolved planar law for the given vibration
-// (vibrofriction/averaged.py, build_table) and stored in the config. Between table points f is
+// (vibrofriction.robots.averaged.build_table) and stored in the config. Between table points f is
 // interpolated bilinearly in (xi, angle); beyond the last xi it is held at the last row.
 //
 // Like vibrofriction.planar, ONE instance backs TWO actuators (x then y transmissions of the

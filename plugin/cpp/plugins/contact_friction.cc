@@ -33,7 +33,8 @@ const char* const kAveragedAttributes[] = {
 constexpr char kFeederPlugin[] = "vibrofriction.contact_feeder";
 constexpr char kMapVelocity[] = "map_velocity";
 constexpr char kMapForce[] = "map_force";
-// Parts on a vibratory feeder at robot timesteps: the feeder map of vibrofriction.feeder_map.
+// Parts on a vibratory feeder at robot timesteps: the feeder map of
+// vibrofriction.robots.feeder_map.
 const char* const kFeederAttributes[] = {kMu, kSupport, kTorsionRadius, kAxis, kMapVelocity,
                                          kMapForce};
 
@@ -124,7 +125,7 @@ bool ContactConfig::FromModelFeeder(const mjModel* m, int instance, ContactConfi
     const char* text = mj_getPluginConfig(m, instance, key);
     if (!text || !text[0]) {
       return ConfigError("%s: attribute '%s' is required: the feeder map, written by "
-                         "vibrofriction.feeder_map (FeederMap.contact_config)", plugin, key);
+                         "vibrofriction.robots.feeder_map (FeederMap.contact_config)", plugin, key);
     }
   }
   if (!ReadNumberList(m, instance, plugin, kMapVelocity, &c.map_velocity) ||

@@ -57,7 +57,7 @@ struct ContactConfig {
   // vibrofriction.contact_feeder: the feeder map along the axis' in-plane part (the conveying
   // direction): the part's mean velocity relative to the support (m/s, increasing; a repeated
   // value bounds a static band) and the mean friction on it over F_N there (non-increasing),
-  // from vibrofriction.feeder_map
+  // from vibrofriction.robots.feeder_map
   bool feeder = false;
   std::vector<double> map_velocity, map_force;
 

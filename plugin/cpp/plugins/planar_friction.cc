@@ -305,7 +305,7 @@ void PlanarFriction::RegisterPlugin() {
 
 }  // namespace vibrofriction
 
-// ---- C API: the planar law along a prescribed velocity history (vibrofriction/planar.py) --------
+// ---- C API: the planar law along a prescribed velocity history (vibrofriction/rigs/planar.py) ---
 
 extern "C" {
 

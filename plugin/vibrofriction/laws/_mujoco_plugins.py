@@ -4,8 +4,8 @@
 which mujoco's ``__init__`` calls at its end. It loads the plugin library and nothing else: it
 may run while ``import vibrofriction`` is itself half done (that import imports mujoco), so it
 uses no other module of the package but the generated ``_build_info``. (Importing it runs the
-package's ``__init__`` inside mujoco's unfinished import: keep that ``__init__`` light, with no
-module that needs mujoco fully imported at its top level.)
+package's ``__init__`` and that of ``vibrofriction.laws`` inside mujoco's unfinished import: keep
+both light, with no module that needs mujoco fully imported at its top level.)
 ``vibrofriction.load()`` loads the same file by the same absolute path: MuJoCo's second
 ``dlopen`` of it registers nothing again.
 """

@@ -33,7 +33,7 @@ def check_mujoco_version(runtime: str | None = None, compiled: str | None = None
 
 
 class _LawParameters(ctypes.Structure):
-    # Same layout as vf_law_parameters in plugin/cpp/c_api.h.
+    # Same layout as vf_law_parameters in plugin/cpp/c_api/c_api.h.
     # (c_api.h's order; tests/test_vocabulary.py checks it)
     _fields_ = [("law", ctypes.c_int)] + [(name, ctypes.c_double) for name in LAW_STRUCT_FIELDS]
 
@@ -42,7 +42,7 @@ _DP = ctypes.POINTER(ctypes.c_double)
 
 
 class _LawLists(ctypes.Structure):
-    # Same layout as vf_law_lists in plugin/cpp/c_api.h: the list-valued parameters.
+    # Same layout as vf_law_lists in plugin/cpp/c_api/c_api.h: the list-valued parameters.
     _fields_ = [("gms_count", ctypes.c_int), ("gms_stiffness", _DP), ("gms_weight", _DP),
                 ("gms_relaxation_time", ctypes.c_double),
                 ("position_map_count", ctypes.c_int), ("position_map_knots", _DP),

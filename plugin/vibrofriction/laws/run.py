@@ -1,6 +1,6 @@
 """The friction laws driven along a given relative-velocity history, from Python.
 
-This calls the plugin's own C++ law code (plugin/cpp/friction_law.cc) through its C API, so
+This calls the plugin's own C++ law code (plugin/cpp/laws/friction_law.cc) through its C API, so
 identification, plots and the MuJoCo plugin share one implementation. The force at sample i
 uses the state z_i; z_{i+1} advances over [t_i, t_{i+1}] with the input at t_{i+1} -- exactly
 the plugin's step order.

@@ -1,6 +1,6 @@
 """The planar friction element (``vibrofriction.planar``) from Python.
 
-* :func:`run_planar_law` drives the plugin's own C++ planar law (plugin/cpp/friction_law.cc)
+* :func:`run_planar_law` drives the plugin's own C++ planar law (plugin/cpp/laws/friction_law.cc)
   along a prescribed relative-velocity history, as :func:`vibrofriction.laws.run_law` does in 1D.
 * :func:`build_rig_spec` / :func:`simulate_rigs`: the paper's rig in the plane
   (``mjcf_models/robots/planar_rig.xml``): support vibration and drive along any in-plane

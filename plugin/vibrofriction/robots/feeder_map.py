@@ -52,7 +52,7 @@ class FeederMap:
     force_ratio: np.ndarray = field(repr=False)       # mean friction along the track / (m g)
 
     def __post_init__(self) -> None:
-        # read-only copies: a map is shared (robots.feeder_map caches one) and must not change
+        # read-only copies: a map is shared (scenes.feeder_map caches one) and must not change
         for name in ("push_ratio", "velocity_m_per_s", "force_ratio"):
             values = np.array(getattr(self, name), dtype=float)
             values.setflags(write=False)

@@ -372,7 +372,7 @@ def initial_state(model: mujoco.MjModel, ctrl0: np.ndarray) -> np.ndarray:
 
 def run_cell(mode: str = "robot", vibration: bool = True, *,
              duration_s: float = DURATION_S) -> SceneRun:
-    """The plan, natively (robots.run_scene in chunks of 10 ms, so that a resolved run keeps
+    """The plan, natively (scenes.run_scene in chunks of 10 ms, so that a resolved run keeps
     little memory); sensors and states every millisecond."""
     model = build_model(mode, vibration)
     ctrl = controls(model)[:int(round(duration_s / model.opt.timestep))]
