@@ -26,7 +26,7 @@ import numpy as np
 import mujoco
 from mujoco import rollout
 
-from vibrofriction import rig
+from vibrofriction.rigs import rig
 from vibrofriction.params import FrictionParameters, RigParameters
 
 try:

@@ -11,7 +11,7 @@ by switching the vibration on: it lowers the force needed to move the part. Wrap
 import mujoco
 import numpy as np
 
-from vibrofriction import robots
+from vibrofriction.robots import scenes
 
 
 EFFORT_WEIGHT_M_PER_N_S = 1e-3  # reward lost per N s of pushing, in m of progress
@@ -21,13 +21,13 @@ class PlatePushEnv:
     """The plate-push scene at the robot's timestep (averaged friction)."""
 
     def __init__(self, steps_per_action: int = 10, max_steps: int = 200):
-        self.model = robots.load_model("plate_push_averaged")
+        self.model = scenes.load_model("plate_push_averaged")
         self.data = mujoco.MjData(self.model)
         self.steps_per_action = steps_per_action
         self.max_steps = max_steps
         self.actuator = {name: self.model.actuator(name).id for name in (
             "shoulder", "elbow", "quill", "part_friction_x")}
-        self.plan = robots.PushPlan()
+        self.plan = scenes.PushPlan()
 
     def _observation(self) -> np.ndarray:
         part = self.data.sensor("part_position").data[:2]
@@ -36,10 +36,10 @@ class PlatePushEnv:
 
     def reset(self, seed: int | None = None):
         x, y, _ = self.plan.pusher(self.plan.push_start_s)  # pusher at the part, lowered
-        q1, q2 = robots.scara_ik(x, y)
+        q1, q2 = scenes.scara_ik(x, y)
         ctrl0 = np.zeros(self.model.nu)
         ctrl0[[self.actuator["shoulder"], self.actuator["elbow"]]] = q1, q2
-        state = robots.initial_state(self.model, ctrl0, {"shoulder": q1, "elbow": q2})
+        state = scenes.initial_state(self.model, ctrl0, {"shoulder": q1, "elbow": q2})
         mujoco.mj_setState(self.model, self.data, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
         mujoco.mj_forward(self.model, self.data)  # the sensors of the reset state
         self.target = np.array([x, y])
@@ -51,7 +51,7 @@ class PlatePushEnv:
         before = self.data.sensor("part_position").data[0]
         dt = self.model.opt.timestep * self.steps_per_action
         self.target = self.target + velocity * dt
-        q1, q2 = robots.scara_ik(*self.target)
+        q1, q2 = scenes.scara_ik(*self.target)
         self.data.ctrl[self.actuator["shoulder"]] = q1
         self.data.ctrl[self.actuator["elbow"]] = q2
         self.data.ctrl[self.actuator["quill"]] = 0.0

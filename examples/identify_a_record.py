@@ -5,7 +5,7 @@ use your own lab record in the dataset format instead), then identified with the
 
     python examples/identify_a_record.py
 """
-from vibrofriction import rig
+from vibrofriction.rigs import rig
 from vibrofriction.commands.simulate import dataset_of
 from vibrofriction.identify.simulation import identify_by_simulation
 from vibrofriction.params import FrictionParameters, RigParameters

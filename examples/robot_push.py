@@ -5,12 +5,12 @@ vibration averaged into the part's friction), with and without the vibration.
 """
 import numpy as np
 
-from vibrofriction import robots
+from vibrofriction.robots import scenes
 
 
 def main() -> None:
     for vibration in (False, True):
-        run = robots.run_push("averaged", vibration=vibration)
+        run = scenes.run_push("averaged", vibration=vibration)
         part = run.sensor("part_position")
         push = run.sensor("push_force")
         print(f"vibration {'on ' if vibration else 'off'}: part moved "

@@ -4,7 +4,7 @@ vibration velocity amplitude, relative to the drive force without vibration.
     python examples/sweep_master_curve.py
 """
 from vibrofriction.params import RigParameters, default_friction
-from vibrofriction.sweep import sweep
+from vibrofriction.rigs.sweep import sweep
 
 
 def main() -> None:

@@ -25,21 +25,22 @@ import numpy as np
 from mujoco import rollout as mj_rollout
 
 import vibrofriction
-from vibrofriction import planar, robots
+from vibrofriction.rigs import planar
+from vibrofriction.robots import scenes
 from vibrofriction.params import RigParameters
 
 
 def rig_case(xi: float, angle: float) -> tuple:
-    mass = robots.PART_MASS_KG
+    mass = scenes.PART_MASS_KG
     stiffness = 2e3  # drive spring (N/m), critically damped: a compliant robot finger
-    vib = robots.PLATE_VIBRATION
+    vib = scenes.PLATE_VIBRATION
     rig = RigParameters(mass_kg=mass, drive_stiffness_N_per_m=stiffness,
                         drive_damping_N_s_per_m=2 * math.sqrt(stiffness * mass),
                         drive_velocity_m_per_s=xi * vib.velocity_amplitude_m_per_s,
                         vibration_frequency_Hz=vib.frequency_Hz,
                         vibration_velocity_amplitude_m_per_s=vib.velocity_amplitude_m_per_s,
-                        normal_force_N=mass * robots.GRAVITY_M_PER_S2)
-    return (rig, robots.PLATE_PART_FRICTION, 0.0, angle)
+                        normal_force_N=mass * scenes.GRAVITY_M_PER_S2)
+    return (rig, scenes.PLATE_PART_FRICTION, 0.0, angle)
 
 
 def accuracy(xis, angles, table) -> list[dict]:
@@ -48,7 +49,7 @@ def accuracy(xis, angles, table) -> list[dict]:
     resolved = planar.simulate_rigs(cases, timestep_s=1e-5, **kwargs)
     finer = planar.simulate_rigs(cases, timestep_s=5e-6, **kwargs)
     fast = planar.simulate_rigs(cases, timestep_s=1e-3, averaged_config=table.config(), **kwargs)
-    bound = robots.PLATE_PART_FRICTION.friction_coefficient * cases[0][0].normal_force_N
+    bound = scenes.PLATE_PART_FRICTION.friction_coefficient * cases[0][0].normal_force_N
     rows = []
     for (rig, _, _, angle), a, b, c in zip(cases, resolved, finer, fast):
         fa, fb, fc = a.mean_drive_force_N(), b.mean_drive_force_N(), c.mean_drive_force_N()
@@ -65,19 +66,19 @@ def accuracy(xis, angles, table) -> list[dict]:
 
 def _scene_cost(name: str, timestep: float, seconds: float, repeats: int) -> float:
     vibrofriction.load()
-    spec = mujoco.MjSpec.from_file(str(robots.scene_path(name)))
+    spec = mujoco.MjSpec.from_file(str(scenes.scene_path(name)))
     spec.option.timestep = timestep
     model = spec.compile()
-    plan = robots.PushPlan()
+    plan = scenes.PushPlan()
     # The push phase (contact active), shifted to start at t = 0 after a settled approach.
     start = plan.push_start_s + 0.2
     nstep = int(round((start + seconds) / timestep))
-    ctrl = robots.push_controls(model, plan, nstep, 1.0)
+    ctrl = scenes.push_controls(model, plan, nstep, 1.0)
     x, y, quill = plan.pusher(0.0)
-    q1, q2 = robots.scara_ik(x, y)
-    state0 = robots.initial_state(model, ctrl[0], {"shoulder": q1, "elbow": q2, "quill": quill})
+    q1, q2 = scenes.scara_ik(x, y)
+    state0 = scenes.initial_state(model, ctrl[0], {"shoulder": q1, "elbow": q2, "quill": quill})
     k0 = int(round(start / timestep))
-    lead = robots.run_scene(model, ctrl[:k0], state0)
+    lead = scenes.run_scene(model, ctrl[:k0], state0)
     if lead.warnings:
         raise RuntimeError(f"MuJoCo warnings in {name}: {lead.warnings}")
     # Copies of the same push in one single-threaded rollout call, >= 10^4 steps, so that the
@@ -117,14 +118,14 @@ def main(argv: list[str] | None = None) -> int:
     xis = (0.1, 0.4, 1.0) if args.quick else (0.05, 0.1, 0.2, 0.4, 0.6, 0.8, 1.0, 1.5)
     angles = (0.0, math.pi / 2) if args.quick else (0.0, math.pi / 4, math.pi / 2)
     t0 = time.perf_counter()
-    table = robots.plate_push_table()
+    table = scenes.plate_push_table()
     print(f"table: {table.xi.size} x {table.angle_rad.size} points from the resolved "
           f"{table.friction.law} law in {time.perf_counter() - t0:.1f} s")
     rows = accuracy(xis, angles, table)
     print("\n1. Mean force, plate-push part on the 2 kHz plate (v_a = 50 mm/s), xi = V / v_a")
     print(f"{'xi':>5} {'angle':>5} {'resolved F/(mu F_N)':>20} {'averaged F/(mu F_N)':>20} "
           f"{'error %':>8} {'resolved dt/2 %':>15}")
-    bound = robots.PLATE_PART_FRICTION.friction_coefficient * robots.PART_MASS_KG * 9.81
+    bound = scenes.PLATE_PART_FRICTION.friction_coefficient * scenes.PART_MASS_KG * 9.81
     for row in rows:
         a = np.linalg.norm(row["resolved_N"]) / bound
         b = np.linalg.norm(row["averaged_N"]) / bound

@@ -23,7 +23,7 @@ import numpy as np
 from mujoco import rollout
 
 import vibrofriction
-from vibrofriction.averaged import Vibration, build_table
+from vibrofriction.robots.averaged import Vibration, build_table
 from vibrofriction.params import FrictionParameters
 
 MU, GRAVITY, PUSH_FRACTION = 0.2, 9.81, 0.5

@@ -3,7 +3,7 @@
 by side in one run on this machine:
 
 1. **A converged four-law master curve** (30 values of kappa_v, log-spaced): the CPU time of the
-   plugin's runs to steady state (``vibrofriction.steady``, single thread, each law's static
+   plugin's runs to steady state (``vibrofriction.rigs.steady``, single thread, each law's static
    run included; building each case's model from its MJCF is part of it, and its share is
    printed) at the coarsest timestep -- the rule's (``rig.recommended_timestep``), halved as
    often as needed -- at which every point is within 1 % of the converged curve (the plugin at
@@ -13,7 +13,7 @@ by side in one run on this machine:
    Each point runs as long as the plugin's run of that point did and is averaged over the same
    window; the timestep is refined (the rule's, halved up to 4 times) until every point is
    within 1 % of the plugin law's converged curve; the cost is that curve's CPU time.
-3. **The scipy reference** (``vibrofriction.reference``, LSODA) on a subset of the points,
+3. **The scipy reference** (``vibrofriction.oracle.reference``, LSODA) on a subset of the points,
    over the same windows: CPU time per point against the plugin's on the same points.
 4. **Sweep throughput**: ``sweep.sweep`` (Dahl) with 1 and 2 rollout threads and on a local Dask
    cluster of two single-thread workers, against the number of points.
@@ -41,13 +41,13 @@ import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
-from vibrofriction import reference
-from vibrofriction import rig as rig_module
+from vibrofriction.oracle import reference
+from vibrofriction.rigs import rig as rig_module
 from vibrofriction.params import LAWS, RigParameters
-from vibrofriction.steady import SteadyRun, hann_mean, run_until_steady
+from vibrofriction.rigs.steady import SteadyRun, hann_mean, run_until_steady
 from vibrofriction.study.builtin import VARIANTS, build_variant_spec, variant_friction
 from vibrofriction.study.config import StudyConfig
-from vibrofriction.sweep import sweep
+from vibrofriction.rigs.sweep import sweep
 
 ACCURACY = 0.01
 BUILTIN = {"coulomb": "frictionloss-tight", "lugre": "dcmotor-lugre"}

@@ -22,9 +22,10 @@ from dataclasses import replace
 
 from pathlib import Path
 
-from vibrofriction import rig, synthetic
+from vibrofriction.rigs import rig
+from vibrofriction.data import synthetic
 from vibrofriction.commands.simulate import dataset_of
-from vibrofriction.datasets import Dataset
+from vibrofriction.data.datasets import Dataset
 from vibrofriction.identify.simulation import identify_by_simulation
 from vibrofriction.params import FrictionParameters, RigParameters
 
@@ -90,7 +91,7 @@ def main() -> None:
 
 
 def emps() -> None:
-    from vibrofriction.convert import convert_emps
+    from vibrofriction.data.convert import convert_emps
     path = Path(__file__).resolve().parents[1].parent / "shared/data/emps/DATA_EMPS.mat"
     if not path.is_file():
         print(f"EMPS data not found at {path}")

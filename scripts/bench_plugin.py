@@ -35,11 +35,11 @@ import numpy as np
 from mujoco import rollout as mj_rollout
 
 import vibrofriction
-from vibrofriction import rig as rig_module
+from vibrofriction.rigs import rig as rig_module
 from vibrofriction.params import LAWS, RigParameters, default_friction
-from vibrofriction.python_law import (ContactParameters, act_dyn_callback, bare_rig_spec,
-                                      dahl_zdot, python_law_spec)
-from vibrofriction.reference import simulate_reference
+from vibrofriction.rigs.python_law import (ContactParameters, act_dyn_callback, bare_rig_spec,
+                                           dahl_zdot, python_law_spec)
+from vibrofriction.oracle.reference import simulate_reference
 from vibrofriction.summary import summarize
 
 TIMESTEP_S = 1e-5

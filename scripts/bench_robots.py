@@ -3,12 +3,12 @@
 drop-in element at 10 us, side by side in one run, for 1 to 50 parts.
 
 The plate moves like the feeder scenes' track (100 Hz, 20 deg throw line, Gamma 0.7; parts 30 g,
-mu 0.3; vibrofriction.robots.FEEDER). Map: the plate still, each part a free body with
-`vibrofriction.contact_feeder` (robots.feeder_plate_scene(mode="map")). Resolved: the plate
+mu 0.3; vibrofriction.robots.scenes.FEEDER). Map: the plate still, each part a free body with
+`vibrofriction.contact_feeder` (scenes.feeder_plate_scene(mode="map")). Resolved: the plate
 vibrating through two `vibrofriction.motion` shakers, each part with `vibrofriction.contact`,
 rigid Coulomb. For each part count: the CPU time of the stepping thread per simulated second
 (one mj_step loop, best of `--rounds`), its growth per part, and the parts' mean conveying
-speed against the exact reference (vibrofriction.feeder_reference). MuJoCo's soft contact, not
+speed against the exact reference (vibrofriction.oracle.feeder_reference). MuJoCo's soft contact, not
 the element, sets the resolved run's error (docs/physics.md). Writes the cost against the parts
 to docs/figures/robot_scaling.png (--out). Not a test: the ratios are the result.
 
@@ -28,7 +28,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 import vibrofriction
-from vibrofriction import robots
+from vibrofriction.robots import scenes
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -65,7 +65,7 @@ def main(argv: list[str] | None = None) -> int:
     if any(n < 1 for n in args.parts) or args.rounds < 1:
         parser.error("--parts and --rounds need positive integers")
     vibrofriction.load()
-    feeder_map = robots.feeder_map()
+    feeder_map = scenes.feeder_map()
     exact = feeder_map.conveying_velocity_m_per_s
     map_s, resolved_s = (0.4, 0.05) if args.quick else (1.0, 0.3)
     print(f"exact conveying speed {exact * 1e3:.4f} mm/s; map {map_s} s at 1 ms, resolved "
@@ -74,9 +74,9 @@ def main(argv: list[str] | None = None) -> int:
           f"{'map speed err':>14} {'resolved err':>13}")
     rows = []
     for n in args.parts:
-        mapped = _run(robots.feeder_plate_scene(n, mode="map", feeder_map_=feeder_map), map_s,
+        mapped = _run(scenes.feeder_plate_scene(n, mode="map", feeder_map_=feeder_map), map_s,
                       args.rounds)
-        resolved = _run(robots.feeder_plate_scene(n, mode="resolved"), resolved_s, args.rounds)
+        resolved = _run(scenes.feeder_plate_scene(n, mode="resolved"), resolved_s, args.rounds)
         for name, result in (("map", mapped), ("resolved", resolved)):
             if result[2]:
                 print(f"MuJoCo warnings ({name}, {n} parts): {result[2]}")

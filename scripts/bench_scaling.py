@@ -53,8 +53,8 @@ import numpy as np
 from mujoco import rollout as mj_rollout
 
 import vibrofriction
-from vibrofriction import rig as rig_module
-from vibrofriction import robots
+from vibrofriction.rigs import rig as rig_module
+from vibrofriction.robots import scenes
 from vibrofriction.params import RigParameters, default_friction
 
 # The same CPU timer and machine description as the per-step benchmark (run from scripts/).
@@ -168,7 +168,7 @@ def _interleaved(workloads: list[Workload], rounds: int) -> list[list[float]]:
 # ---- A: the element's share of a robot scene's step ----------------------------------------------
 
 def _scene_spec(name: str, variant: str) -> mujoco.MjSpec:
-    spec = mujoco.MjSpec.from_file(str(robots.scene_path(name)))
+    spec = mujoco.MjSpec.from_file(str(scenes.scene_path(name)))
     if variant == WITH:
         return spec
     if remove_friction_elements(spec) == 0:
@@ -176,9 +176,9 @@ def _scene_spec(name: str, variant: str) -> mujoco.MjSpec:
     if variant == DAMPED:
         # Drag mu m g at the push speed: the part stays against the pusher as with the
         # element, so the contacts, and the constraint solver's work, are the same.
-        plan = robots.PushPlan()
-        damping = (robots.PLATE_PART_FRICTION.friction_coefficient * robots.PART_MASS_KG
-                   * robots.GRAVITY_M_PER_S2 / plan.speed_m_per_s)
+        plan = scenes.PushPlan()
+        damping = (scenes.PLATE_PART_FRICTION.friction_coefficient * scenes.PART_MASS_KG
+                   * scenes.GRAVITY_M_PER_S2 / plan.speed_m_per_s)
         for joint in ("part_x", "part_y"):
             spec.joint(joint).damping = [damping, 0.0, 0.0]
     return spec
@@ -188,15 +188,15 @@ def _scene_workload(name: str, variant: str) -> Workload:
     """The push phase of a plate-push scene (as scripts/bench_averaged.py, _scene_cost)."""
     model = _scene_spec(name, variant).compile()
     dt = model.opt.timestep
-    plan = robots.PushPlan()
+    plan = scenes.PushPlan()
     start_s = plan.push_start_s + 0.2  # the part is being pushed from here on
     k0 = int(round(start_s / dt))
     window = min(SCENE_MIN_STEPS, int(plan.push_end_s / dt) - k0)  # steps, within the push
-    ctrl = robots.push_controls(model, plan, k0 + window, 1.0)
+    ctrl = scenes.push_controls(model, plan, k0 + window, 1.0)
     x, y, quill = plan.pusher(0.0)
-    q1, q2 = robots.scara_ik(x, y)
-    state0 = robots.initial_state(model, ctrl[0], {"shoulder": q1, "elbow": q2, "quill": quill})
-    lead = robots.run_scene(model, ctrl[:k0], state0)
+    q1, q2 = scenes.scara_ik(x, y)
+    state0 = scenes.initial_state(model, ctrl[0], {"shoulder": q1, "elbow": q2, "quill": quill})
+    lead = scenes.run_scene(model, ctrl[:k0], state0)
     label = f"{name}, {variant}"
     if lead.warnings:
         raise RuntimeError(f"MuJoCo warnings in {label}: {lead.warnings}")

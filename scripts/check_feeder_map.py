@@ -2,9 +2,9 @@
 """The feeder map at robot timesteps over a feeder's operating range, against the exact
 reference: Gamma 0.3-2, throw angle 10-40 deg, mu 0.3 and 0.5.
 
-For each feeder: its map (vibrofriction.feeder_map.build_map), one free part on the still track
-with vibrofriction.contact_feeder at 1 and 2 ms (robots.feeder_plate_scene), and
-* the steady conveying speed against the reference's (vibrofriction.feeder_reference.convey);
+For each feeder: its map (vibrofriction.robots.feeder_map.build_map), one free part on the still track
+with vibrofriction.contact_feeder at 1 and 2 ms (scenes.feeder_plate_scene), and
+* the steady conveying speed against the reference's (vibrofriction.oracle.feeder_reference.convey);
 * the start-up of a part set down at rest: the reference's displacement averaged over 8
   landing phases against the element's, at period ends over 30 periods, as the largest gap
   over the track's amplitude along the track, A cos(beta) (the scale of the motion within a
@@ -23,9 +23,9 @@ import mujoco
 import numpy as np
 
 import vibrofriction
-from vibrofriction import robots
-from vibrofriction.feeder_map import build_map
-from vibrofriction.feeder_reference import Feeder, convey, set_down_travel
+from vibrofriction.robots import scenes
+from vibrofriction.robots.feeder_map import build_map
+from vibrofriction.oracle.feeder_reference import Feeder, convey, set_down_travel
 
 PERIODS = 30
 
@@ -33,7 +33,7 @@ PERIODS = 30
 def _start_up_gap(feeder: Feeder, feeder_map, timestep: float) -> tuple[float, float]:
     """(steady speed of the element, largest start-up gap over A cos(beta))."""
     model = mujoco.MjModel.from_xml_string(
-        robots.feeder_plate_scene(1, feeder_map_=feeder_map, timestep_s=timestep))
+        scenes.feeder_plate_scene(1, feeder_map_=feeder_map, timestep_s=timestep))
     data = mujoco.MjData(model)
     period = 1 / feeder.frequency_Hz
     duration = max(PERIODS * period + 0.02, 0.6)

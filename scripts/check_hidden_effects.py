@@ -1,7 +1,7 @@
 """Hidden effects in position-only lab records of the scipy reference, identified by simulation.
 
 For each of the 8 vocabulary effects hidden alone, a clean record and a clean record with a tone
-outside the vocabulary (`vibrofriction.synthetic.lab_scenario`: time, drive force, slider
+outside the vocabulary (`vibrofriction.data.synthetic.lab_scenario`: time, drive force, slider
 position, support velocity at 100 kHz with sensor noise; 20 ms still, 30 ms vibrating at 4 kHz),
 identify with LuGre, nothing declared, and print a Markdown table: what was selected, the
 effect's fitted values against the truth, the residual peaks, and the time taken. Exits 1 when
@@ -18,7 +18,7 @@ import math
 import sys
 import time
 
-from vibrofriction import synthetic
+from vibrofriction.data import synthetic
 from vibrofriction.identify.model import EFFECT_FIELDS, EFFECTS
 from vibrofriction.identify.simulation import identify_by_simulation
 

@@ -15,9 +15,10 @@ from __future__ import annotations
 import argparse
 import time
 
-from vibrofriction import rig, synthetic
+from vibrofriction.rigs import rig
+from vibrofriction.data import synthetic
 from vibrofriction.commands.simulate import dataset_of
-from vibrofriction.datasets import Dataset
+from vibrofriction.data.datasets import Dataset
 from vibrofriction.identify.simulation import identify_by_simulation
 from vibrofriction.params import FrictionParameters, RigParameters
 

@@ -18,8 +18,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from vibrofriction import rig, synthetic
-from vibrofriction.reference import simulate_reference
+from vibrofriction.rigs import rig
+from vibrofriction.data import synthetic
+from vibrofriction.oracle.reference import simulate_reference
 
 STEPS_PER_PERIOD = (25, 50, 100, 200)
 

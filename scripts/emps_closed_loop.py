@@ -22,8 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from vibrofriction import cli
-from vibrofriction.convert import convert_emps
-from vibrofriction.datasets import Dataset, write_dataset
+from vibrofriction.data.convert import convert_emps
+from vibrofriction.data.datasets import Dataset, write_dataset
 from vibrofriction.identify.simulation_report import PUBLISHED_CLOSED_LOOP
 
 DEFAULT_DATA = Path(__file__).resolve().parents[1].parent / "shared/data/emps/DATA_EMPS.mat"

@@ -22,8 +22,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from vibrofriction import rig as rig_module
-from vibrofriction.convert import convert_emps
+from vibrofriction.rigs import rig as rig_module
+from vibrofriction.data.convert import convert_emps
 from vibrofriction.identify.machine_replay import MachineReplay, closed_loop_errors
 from vibrofriction.identify.replay import Replayer, prepare_replay
 from vibrofriction.params import FrictionParameters

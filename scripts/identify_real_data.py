@@ -35,8 +35,8 @@ from pathlib import Path
 import numpy as np
 
 from vibrofriction import cli
-from vibrofriction.convert import convert_emps, convert_friction_damper, convert_pneumatic_seal
-from vibrofriction.datasets import Dataset, write_dataset
+from vibrofriction.data.convert import convert_emps, convert_friction_damper, convert_pneumatic_seal
+from vibrofriction.data.datasets import Dataset, write_dataset
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 EMPS = DATA / "emps" / "DATA_EMPS.mat"

@@ -107,9 +107,9 @@ def _child(model: str, nstep: int) -> None:
     import mujoco
     from mujoco import rollout
 
-    from vibrofriction import rig as rig_module
+    from vibrofriction.rigs import rig as rig_module
     from vibrofriction.params import RigParameters, default_friction
-    from vibrofriction.python_law import bare_rig_spec
+    from vibrofriction.rigs.python_law import bare_rig_spec
 
     rig = RigParameters(vibration_velocity_amplitude_m_per_s=3e-3)
     if model == BARE:
@@ -218,7 +218,7 @@ def _save_push_windows(scene: str, workdir: Path) -> tuple[dict[str, Path], int]
 def _robot_scenes(workdir: Path) -> dict:
     import bench_scaling
 
-    from vibrofriction._mujoco_plugins import library_path
+    from vibrofriction.laws._mujoco_plugins import library_path
 
     def library_stamp() -> tuple[int, int]:
         status = library_path().stat()

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """A real arm (dm_control's Kinova Jaco) with the drop-in elements: it sets a part on a
 vibrating inclined plate and picks a part off a vibratory feeder, with and without vibration,
-resolved (dt 10 us) and at its own 1 ms (vibrofriction.robot_arm).
+resolved (dt 10 us) and at its own 1 ms (vibrofriction.robots.robot_arm).
 
 Prints, for the four runs: the placed part's speed down the slope against the heavy-body value
 (v_a sin(pi/2 tan(theta)/mu)), where the first feeder part ends (the tray, or still on the
@@ -29,7 +29,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from vibrofriction import robot_arm, robots  # noqa: E402
+from vibrofriction.robots import robot_arm, scenes  # noqa: E402
 from vibrofriction.params import ParameterError  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -108,8 +108,8 @@ def main(argv: list[str] | None = None) -> int:
     fig.savefig(path, dpi=80)
     print(f"wrote {path}")
     try:
-        frames = robots.render_frames(runs["robot", True], (1.8, 3.6, 7.0, 9.9))
-    except robots.RenderingUnavailable as reason:
+        frames = scenes.render_frames(runs["robot", True], (1.8, 3.6, 7.0, 9.9))
+    except scenes.RenderingUnavailable as reason:
         print(f"frames skipped: {reason}")
         return 0
     path = args.out / "robot_arm_frames.png"

@@ -26,29 +26,29 @@ import numpy as np  # noqa: E402
 
 import mujoco  # noqa: E402
 
-from vibrofriction import robots  # noqa: E402
-from vibrofriction.feeder_reference import set_down_travel  # noqa: E402
+from vibrofriction.robots import scenes  # noqa: E402
+from vibrofriction.oracle.feeder_reference import set_down_travel  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _resolved_at(timestep_s: float, duration_s: float) -> robots.SceneRun:
+def _resolved_at(timestep_s: float, duration_s: float) -> scenes.SceneRun:
     """feeder.xml with its timestep changed (the contact's solref stays)."""
-    spec = mujoco.MjSpec.from_file(str(robots.scene_path("feeder")))
+    spec = mujoco.MjSpec.from_file(str(scenes.scene_path("feeder")))
     spec.option.timestep = timestep_s
     model = spec.compile()
     nstep = int(round(duration_s / timestep_s))
     ctrl = np.zeros((nstep, model.nu))
     for name in ("shaker_x", "shaker_z"):
         ctrl[:, model.actuator(name).id] = 1.0
-    return robots.run_scene(model, ctrl, keep_every=max(1, int(round(1e-4 / timestep_s))))
+    return scenes.run_scene(model, ctrl, keep_every=max(1, int(round(1e-4 / timestep_s))))
 
 
-def _speed(run: robots.SceneRun, duration: float) -> float:
+def _speed(run: scenes.SceneRun, duration: float) -> float:
     """The parts' mean conveying speed over the second half (m/s)."""
     late = run.time_s >= duration / 2
     return float(np.mean([np.polyfit(run.time_s[late], run.sensor(f"{p}_position")[late, 0], 1)[0]
-                          for p in robots.FEEDER_PARTS]))
+                          for p in scenes.FEEDER_PARTS]))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -58,19 +58,19 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     duration = 1.0 if args.quick else 3.0
-    runs = {v: robots.run_feeder(vibration=v, duration_s=duration) for v in (True, False)}
+    runs = {v: scenes.run_feeder(vibration=v, duration_s=duration) for v in (True, False)}
     coarse = _resolved_at(1e-4, duration)
-    mapped = robots.run_feeder(mode="map", duration_s=duration)
+    mapped = scenes.run_feeder(mode="map", duration_s=duration)
     for run in (*runs.values(), coarse, mapped):
         if run.warnings:
             print(f"MuJoCo warnings: {run.warnings}", file=sys.stderr)
             return 1
-    feeder_map = robots.feeder_map()
-    feeder = robots.FEEDER
+    feeder_map = scenes.feeder_map()
+    feeder = scenes.FEEDER
     exact = feeder_map.conveying_velocity_m_per_s
     on = runs[True]
     t = on.time_s
-    print(f"exact reference (vibrofriction.feeder_reference): {exact * 1e3:.4f} mm/s "
+    print(f"exact reference (vibrofriction.oracle.feeder_reference): {exact * 1e3:.4f} mm/s "
           f"(Gamma {feeder.throw_number:.2f}, throw angle "
           f"{np.degrees(feeder.throw_angle_rad):.0f} deg, mu {feeder.friction_coefficient})")
     print(f"{'scene':<36} {'dt (s)':>7} {'speed (mm/s)':>12} {'vs exact':>9} "
@@ -83,7 +83,7 @@ def main(argv: list[str] | None = None) -> int:
               f"{100 * (speed / exact - 1):+8.2f}% {run.wall_s / duration:15.4f}s")
     still = runs[False]
     drift = max(abs(still.sensor(f"{p}_position")[-1, 0] - still.sensor(f"{p}_position")[0, 0])
-                for p in robots.FEEDER_PARTS)
+                for p in scenes.FEEDER_PARTS)
     print(f"without vibration (resolved): the parts move {drift * 1e3:.2e} mm")
     print(f"cost, map at 1 ms over resolved at 10 us: "
           f"{on.wall_s / mapped.wall_s:.0f}x less wall time per simulated second "
@@ -105,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
     axes[0].legend(fontsize=7)
     window = (t >= duration - 0.03)
     state = on.sensor("part1_friction")
-    weight = robots.FEEDER_PART_MASS_KG * 9.81
+    weight = scenes.FEEDER_PART_MASS_KG * 9.81
     axes[1].plot(1e3 * (t[window] - t[window][0]), state[window, 6] / weight, label="F_N / m g")
     axes[1].plot(1e3 * (t[window] - t[window][0]),
                  state[window, 0] / (0.3 * weight), label="F_x / (mu m g)")
@@ -128,9 +128,9 @@ def main(argv: list[str] | None = None) -> int:
     fig.savefig(path, dpi=80)
     print(f"wrote {path}")
     try:
-        frames = robots.render_frames(on, [0.01, duration / 2, duration - 0.01], height=200,
+        frames = scenes.render_frames(on, [0.01, duration / 2, duration - 0.01], height=200,
                                       width=260)
-    except robots.RenderingUnavailable as reason:
+    except scenes.RenderingUnavailable as reason:
         print(f"frames skipped: {reason}")
         return 0
     path = args.out / "robot_feeder_frames.png"

@@ -21,14 +21,14 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from vibrofriction import robots  # noqa: E402
+from vibrofriction.robots import scenes  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def period_mean(run: robots.SceneRun, series: np.ndarray) -> np.ndarray:
+def period_mean(run: scenes.SceneRun, series: np.ndarray) -> np.ndarray:
     """Moving mean over one vibration period (resolved runs), for plotting."""
-    n = max(1, int(round(1 / (robots.PLATE_VIBRATION.frequency_Hz * run.model.opt.timestep))))
+    n = max(1, int(round(1 / (scenes.PLATE_VIBRATION.frequency_Hz * run.model.opt.timestep))))
     if n == 1:
         return series
     kernel = np.ones(n) / n
@@ -42,19 +42,19 @@ def main(argv: list[str] | None = None) -> int:
                         help="resolved runs over the first 1.2 s only")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
-    plan = robots.PushPlan()
+    plan = scenes.PushPlan()
     runs = {}
     for mode in ("averaged", "resolved"):
         for vibration in (True, False):
             duration = 1.2 if (args.quick and mode == "resolved") else plan.duration_s
-            run = robots.run_push(mode, vibration=vibration, plan=plan, duration_s=duration)
+            run = scenes.run_push(mode, vibration=vibration, plan=plan, duration_s=duration)
             if run.warnings:
                 print(f"MuJoCo warnings in {mode} run: {run.warnings}", file=sys.stderr)
                 return 1
             runs[(mode, vibration)] = run
     window = (plan.push_start_s + 0.3, min(plan.push_end_s, 1.2 if args.quick else 1e9))
     print(f"push at {plan.speed_m_per_s * 1e3:g} mm/s along the vibration (xi = "
-          f"{plan.speed_m_per_s / robots.PLATE_VIBRATION.velocity_amplitude_m_per_s:.2f}); "
+          f"{plan.speed_m_per_s / scenes.PLATE_VIBRATION.velocity_amplitude_m_per_s:.2f}); "
           f"mean push force {window[0]:.1f}-{window[1]:.1f} s:")
     print(f"{'mode':>9} {'vibration':>9} {'dt (s)':>8} {'push (N)':>9} {'part x end (mm)':>15} "
           f"{'wall per sim s':>14}")
@@ -85,7 +85,7 @@ def main(argv: list[str] | None = None) -> int:
     pusher = runs[("averaged", True)].sensor("pusher_position")
     axes[0, 0].plot(runs[("averaged", True)].time_s, 1e3 * pusher[:, 0], color="0.8", lw=3,
                     zorder=0, label="pusher")
-    bound = robots.PLATE_PART_FRICTION.friction_coefficient * robots.PART_MASS_KG * 9.81
+    bound = scenes.PLATE_PART_FRICTION.friction_coefficient * scenes.PART_MASS_KG * 9.81
     for ax in (axes[0, 1], axes[1, 0]):
         ax.axhline(bound, color="0.7", lw=0.8, ls="--")
     axes[0, 0].set_ylabel("part x (mm)")
@@ -104,9 +104,9 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         run = runs[("averaged", True)]
-        frames = robots.render_frames(run, [0.05, plan.push_start_s, 1.6, plan.duration_s - 0.05],
+        frames = scenes.render_frames(run, [0.05, plan.push_start_s, 1.6, plan.duration_s - 0.05],
                                       height=200, width=260)
-    except robots.RenderingUnavailable as reason:
+    except scenes.RenderingUnavailable as reason:
         print(f"frames skipped: {reason}")
         return 0
     strip = np.concatenate(frames, axis=1)

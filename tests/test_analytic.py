@@ -1,11 +1,11 @@
-"""Analytic anchors (vibrofriction.analytic): literature values and independent quadratures."""
+"""Analytic anchors (vibrofriction.oracle.analytic): literature values and independent quadratures."""
 import math
 
 import numpy as np
 import pytest
 from scipy.integrate import quad, solve_ivp
 
-from vibrofriction import analytic
+from vibrofriction.oracle import analytic
 from vibrofriction.params import RigParameters, default_friction
 
 # LuGre standard set (Canudas de Wit et al. 1995), docs/physics.md.

@@ -11,7 +11,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from vibrofriction import averaged, planar
+from vibrofriction.robots import averaged
+from vibrofriction.rigs import planar
 from vibrofriction.params import FrictionParameters, RigParameters
 
 # A 0.2 kg part on a plate vibrating at 2 kHz with v_a = 50 mm/s (u0 = 4 um), mu = 0.3,
@@ -276,7 +277,7 @@ def test_a_table_edited_after_its_checksum_was_made_is_refused(checksum, named):
     assert averaged.table_checksum(*(config[key] for key in TABLE_KEYS)) == config["table_checksum"]
     _spec_with(config).compile()  # the stated checksum is the plugin's
     config["table_checksum"] = checksum
-    with pytest.raises(ValueError, match=named + ".*make it again with vibrofriction.averaged"
+    with pytest.raises(ValueError, match=named + ".*make it again with vibrofriction.robots.averaged"
                        ".build_table, or remove 'table_checksum'"):
         _spec_with(config).compile()
 

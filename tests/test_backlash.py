@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 
 import vibrofriction
-from vibrofriction import planar, reference, rig
+from vibrofriction.rigs import planar, rig
+from vibrofriction.oracle import reference
 from vibrofriction.commands.simulate import dataset_of
-from vibrofriction.datasets import Dataset
+from vibrofriction.data.datasets import Dataset
 from vibrofriction.identify.replay import prepare_replay
 from vibrofriction.errors import InputError
 from vibrofriction.identify import identify

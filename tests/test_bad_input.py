@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from vibrofriction import cli
-from vibrofriction.datasets import (Dataset, DatasetError, DatasetMetadata, all_or_nothing,
-                                    write_dataset)
+from vibrofriction.data.datasets import (Dataset, DatasetError, DatasetMetadata, all_or_nothing,
+                                         write_dataset)
 from vibrofriction.identify.report import write_folder
 
 SHORT = ["--duration", "0.01"]
@@ -259,7 +259,8 @@ def test_sigterm_while_writing_leaves_the_old_folder_and_no_temporary(tmp_path):
 
 
 def test_a_mujoco_version_mismatch_is_one_line_exit_2(tmp_path, monkeypatch, capsys):
-    from vibrofriction import _build_info, _native
+    from vibrofriction import _build_info
+    from vibrofriction.laws import _native
     monkeypatch.chdir(tmp_path)
     monkeypatch.setattr(_build_info, "MUJOCO_VERSION", "0.0.1")
     monkeypatch.setattr(_native, "_library", None)  # as in a fresh process: load() checks
@@ -277,7 +278,7 @@ def test_parameter_messages_show_plain_numbers_for_numpy_values():
 
 
 def test_a_run_larger_than_memory_is_one_line_exit_2(tmp_path, monkeypatch, capsys):
-    from vibrofriction import rig
+    from vibrofriction.rigs import rig
 
     def too_large(*args, **kwargs):
         raise MemoryError("Unable to allocate 33.6 GiB for an array")
@@ -307,7 +308,8 @@ def test_an_unreachable_dask_scheduler_is_one_message(monkeypatch, capsys):
 
 
 def test_info_shows_the_versions_when_the_plugins_cannot_load(tmp_path, monkeypatch):
-    from vibrofriction import _build_info, _native
+    from vibrofriction import _build_info
+    from vibrofriction.laws import _native
     monkeypatch.setattr(_build_info, "MUJOCO_VERSION", "0.0.1")
     monkeypatch.setattr(_native, "_library", None)  # as in a fresh process: load() checks
     path = tmp_path / "info.json"

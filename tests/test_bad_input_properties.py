@@ -11,8 +11,8 @@ from pathlib import Path
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from vibrofriction import rig as rig_module
-from vibrofriction.datasets import COLUMN_LIMITS, read_dataset
+from vibrofriction.rigs import rig as rig_module
+from vibrofriction.data.datasets import COLUMN_LIMITS, read_dataset
 from vibrofriction.errors import InputError
 from vibrofriction.params import LIMITS, RigParameters, apply_overrides, default_friction
 

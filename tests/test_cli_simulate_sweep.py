@@ -12,8 +12,8 @@ import pytest
 
 import vibrofriction
 from vibrofriction.cli import main
-from vibrofriction.datasets import COLUMNS, MACHINE_INPUT_COLUMNS, read_dataset
-from vibrofriction.sweep import CONVERGENCE_KEYS, POINT_KEYS
+from vibrofriction.data.datasets import COLUMNS, MACHINE_INPUT_COLUMNS, read_dataset
+from vibrofriction.rigs.sweep import CONVERGENCE_KEYS, POINT_KEYS
 
 SHORT = ["--duration", "0.04", "--settle", "0.03"]  # 40 periods averaged, loaded at 22 ms
 
@@ -122,7 +122,7 @@ def test_a_sweep_point_carries_the_mean_friction_force_of_its_run_summary(tmp_pa
                                                                           monkeypatch):
     """Every point has mean_friction_force_N, taken from the run's own summary (the object
     simulate reports it from): equal to it, and to simulate's for the same run."""
-    import vibrofriction.sweep as sweep_module
+    import vibrofriction.rigs.sweep as sweep_module
 
     summaries = []
     run_cases = sweep_module.run_cases
@@ -244,7 +244,7 @@ def test_console_script_and_module_entry_point(tmp_path):
 
 def test_the_python_sweep_refuses_nthread_with_a_scheduler_before_running():
     """The library call names the pair too (it silently ran on the workers' threads)."""
-    from vibrofriction import sweep as sweep_module
+    from vibrofriction.rigs import sweep as sweep_module
     from vibrofriction.errors import InputError
     from vibrofriction.params import RigParameters, default_friction
     with pytest.raises(InputError, match="nthread=2.*scheduler"):

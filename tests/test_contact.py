@@ -15,7 +15,7 @@ import pytest
 from scipy.optimize import brentq
 
 import vibrofriction
-from vibrofriction import analytic
+from vibrofriction.oracle import analytic
 
 MU = 0.2
 GRAVITY = 9.81
@@ -278,8 +278,8 @@ def test_the_drop_in_element_equals_the_slide_joint_planar_element():
 
 def test_the_bundled_drop_in_scene_steps_without_warnings_and_creeps():
     vibrofriction.load()
-    from vibrofriction import robots
-    model = mujoco.MjModel.from_xml_path(str(robots.scene_path("free_part_on_plate")))
+    from vibrofriction.robots import scenes
+    model = mujoco.MjModel.from_xml_path(str(scenes.scene_path("free_part_on_plate")))
     data = mujoco.MjData(model)
     _push(model, data, 3000)
     start = data.body("part").xpos[0]
@@ -342,7 +342,7 @@ def test_the_contact_sensor_reports_the_force_the_element_applies():
 def dahl_table():
     """The averaged law of the resolved scene's contact (Dahl, mu 0.2, 1 N/nm, F_N = m g) under
     its plate's vibration (1 kHz, 20 mm/s along x)."""
-    from vibrofriction.averaged import Vibration, build_table
+    from vibrofriction.robots.averaged import Vibration, build_table
     from vibrofriction.params import FrictionParameters
     friction = FrictionParameters(law="dahl", friction_coefficient=MU,
                                   contact_stiffness_N_per_m=1e9)
@@ -555,7 +555,7 @@ def test_the_averaged_drop_in_round_trips_its_state(dahl_table):
 
 
 def test_contact_config_takes_the_tables_vibration_axis():
-    from vibrofriction.averaged import Vibration, build_table
+    from vibrofriction.robots.averaged import Vibration, build_table
     from vibrofriction.params import FrictionParameters
     table = build_table(FrictionParameters(law="coulomb", friction_coefficient=MU),
                         Vibration(1000.0, 0.02, axis_angle_rad=math.pi / 2), GRAVITY,

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from vibrofriction import cli
-from vibrofriction.convert import (PNEUMATIC_PISTON_AREA_M2, convert_emps,
-                                   convert_friction_damper, convert_pneumatic_seal)
-from vibrofriction.datasets import DatasetError, read_dataset
+from vibrofriction.data.convert import (PNEUMATIC_PISTON_AREA_M2, convert_emps,
+                                        convert_friction_damper, convert_pneumatic_seal)
+from vibrofriction.data.datasets import DatasetError, read_dataset
 
 DATA_DIR = Path(__file__).resolve().parents[2] / "shared" / "data"
 EMPS_MAT = DATA_DIR / "emps" / "DATA_EMPS.mat"

@@ -1,6 +1,7 @@
 """C++ unit tests of the plugin's internals (plugin/cpp/tests/*_test.cc), compiled here against
 the checkout's sources and the installed MuJoCo's headers and library, then run: each exits 0
-when every check held. Each test names the library sources it needs on a `// sources:` line.
+when every check held. Each test names the library sources it needs on a `// sources:` line
+(paths relative to plugin/cpp, e.g. laws/friction_law.cc).
 CMake builds and registers the same tests with ctest (-DVIBROFRICTION_BUILD_TESTS=ON)."""
 from __future__ import annotations
 

@@ -64,7 +64,7 @@ def test_dask_local_cluster_equals_local_run(local_result):
 def test_the_sweep_command_on_a_dask_cluster_equals_its_local_run():
     """`vibrofriction sweep --scheduler ADDRESS`: the same JSON as on local threads."""
     from vibrofriction.params import RigParameters, default_friction
-    from vibrofriction.sweep import sweep
+    from vibrofriction.rigs.sweep import sweep
 
     rig = RigParameters()
     settings = dict(timestep_s=1e-5, duration_s=0.04, settle_time_s=0.03, progress=False)

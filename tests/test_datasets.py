@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vibrofriction.datasets import (Dataset, DatasetError, DatasetMetadata, read_dataset,
-                                    smoothed_derivative, write_dataset)
+from vibrofriction.data.datasets import (Dataset, DatasetError, DatasetMetadata, read_dataset,
+                                         smoothed_derivative, write_dataset)
 
 GOOD_CSV = ("time_s,position_m,drive_force_N\n"
             "0.0,0.0,1.0\n"

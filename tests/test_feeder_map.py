@@ -1,6 +1,6 @@
-"""The feeder map (``vibrofriction.feeder_map``) and the element that applies it at robot
+"""The feeder map (``vibrofriction.robots.feeder_map``) and the element that applies it at robot
 timesteps (``vibrofriction.contact_feeder``), checked against the exact event-driven feeder
-reference (``vibrofriction.feeder_reference``; MuJoCo's own contact is no reference for a
+reference (``vibrofriction.oracle.feeder_reference``; MuJoCo's own contact is no reference for a
 feeder, docs/physics.md): the conveying velocity over the operating range (Gamma 0.3-2, throw
 angle 10-40 deg) at 1 and 2 ms, a pushed part's velocity, and the start-up of a part set down on
 the running feeder, averaged over the phase it lands at.
@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 import vibrofriction
-from vibrofriction.feeder_map import DEFAULT_PUSH_RATIOS, FeederMap, build_map
-from vibrofriction.feeder_reference import (Feeder, convey, set_down_travel,
-                                            stick_throw_number)
+from vibrofriction.robots.feeder_map import DEFAULT_PUSH_RATIOS, FeederMap, build_map
+from vibrofriction.oracle.feeder_reference import (Feeder, convey, set_down_travel,
+                                                   stick_throw_number)
 from vibrofriction.params import ParameterError
 
 PART_MASS_KG = 0.03

@@ -7,9 +7,10 @@ import math
 
 import pytest
 
-from vibrofriction.feeder_reference import (Feeder, convey, flight_fraction_infinite_friction,
-                                            infinite_friction_velocity_ratio,
-                                            stick_throw_number)
+from vibrofriction.oracle.feeder_reference import (Feeder, convey,
+                                                   flight_fraction_infinite_friction,
+                                                   infinite_friction_velocity_ratio,
+                                                   stick_throw_number)
 from vibrofriction.params import ParameterError
 
 

@@ -13,8 +13,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from vibrofriction import laws, planar, reference
-from vibrofriction import rig as rig_module
+from vibrofriction import laws
+from vibrofriction.rigs import planar
+from vibrofriction.oracle import reference
+from vibrofriction.rigs import rig as rig_module
 from vibrofriction.params import FrictionParameters, ParameterError, RigParameters, \
     apply_overrides, default_friction
 
@@ -326,8 +328,8 @@ def test_a_bad_gms_config_is_named(config, actdim, named):
 
 
 def test_the_contact_elements_refuse_gms():
-    from vibrofriction import robots
-    spec = mujoco.MjSpec.from_file(str(robots.scene_path("free_part_on_plate")))
+    from vibrofriction.robots import scenes
+    spec = mujoco.MjSpec.from_file(str(scenes.scene_path("free_part_on_plate")))
     for plugin in spec.plugins:
         if plugin.plugin_name == "vibrofriction.contact":
             plugin.config = {**dict(plugin.config), "law": "gms"}

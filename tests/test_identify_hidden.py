@@ -1,6 +1,6 @@
 """Hidden effects in position-only lab records, found by simulation (issue 17, item 3).
 
-Each record is made by the scipy reference (`vibrofriction.synthetic`, never the plugin) and
+Each record is made by the scipy reference (`vibrofriction.data.synthetic`, never the plugin) and
 measures what a lab measures on the rig: `time_s, drive_force_N, position_m,
 support_velocity_m_per_s` at 100 kHz with realistic sensor noise. A first stage without
 vibration (20 ms: the spring loads, the slider breaks away and slides) and then 30 ms of
@@ -21,7 +21,7 @@ import os
 
 import pytest
 
-from vibrofriction import synthetic
+from vibrofriction.data import synthetic
 from vibrofriction.identify.simulation import identify_by_simulation
 
 # The value checked for each effect (the phases are checked in radians, below).

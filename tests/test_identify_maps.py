@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import CubicSpline
 
-from vibrofriction import synthetic
+from vibrofriction.data import synthetic
 from vibrofriction.identify import identify
 
 HIDDEN = {

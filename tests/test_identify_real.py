@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vibrofriction.convert import convert_emps, convert_friction_damper, convert_pneumatic_seal
-from vibrofriction.datasets import Dataset
+from vibrofriction.data.convert import convert_emps, convert_friction_damper, convert_pneumatic_seal
+from vibrofriction.data.datasets import Dataset
 from vibrofriction.identify import identify
 
 DATA_DIR = Path(__file__).resolve().parents[2] / "shared" / "data"

@@ -16,9 +16,10 @@ import numpy as np
 import pytest
 
 import vibrofriction
-from vibrofriction import cli, rig
+from vibrofriction import cli
+from vibrofriction.rigs import rig
 from vibrofriction.commands.simulate import dataset_of
-from vibrofriction.datasets import Dataset, write_dataset
+from vibrofriction.data.datasets import Dataset, write_dataset
 from vibrofriction.identify.replay import Replayer, prepare_replay
 from vibrofriction.identify.simulation import identify_by_simulation
 from vibrofriction.params import FrictionParameters, RigParameters
@@ -169,7 +170,7 @@ def test_a_noisy_record_round_trips_within_3_percent(law, columns) -> None:
     residuals' effective samples; LuGre from position and drive force alone, v_s +177 % with
     the support's velocity band-filtered, mu +4 % with it fitted as a steady vibration but
     without the third Stribeck restart.)"""
-    from vibrofriction.synthetic import with_sensor_noise
+    from vibrofriction.data.synthetic import with_sensor_noise
     record = with_sensor_noise(_record(law, columns))
     result = identify_by_simulation(record, law=law, declared=DECLARED.get(law, ()))
     assert result.selected == []
@@ -235,7 +236,7 @@ def test_a_simulate_csv_record_with_a_stage_of_vibration_off_round_trips(tmp_pat
     """`vibrofriction simulate --csv` with --set vibration_from_s: the table stands still for
     20 ms (the spring loads, the slider breaks away), then the vibration builds up. Identified
     with the same law: every parameter within 1 %, nothing selected."""
-    from vibrofriction.datasets import read_dataset
+    from vibrofriction.data.datasets import read_dataset
     truth = LAWS["dahl"]
     csv = tmp_path / "staged.csv"
     settings = {"vibration_velocity_amplitude_m_per_s": 1.5e-3, "vibration_from_s": 0.02,
@@ -288,7 +289,7 @@ def test_vibration_band_keeps_the_vibration_and_drops_the_noise() -> None:
     the vibration to 1e-3 of its amplitude (measured 5e-5: the cubic envelope's knots go where
     the ramp is) and leaves a third of the noise or less (measured 0.25), ends included."""
     from vibrofriction.identify.replay import vibration_band
-    from vibrofriction.reference import support_motion
+    from vibrofriction.oracle.reference import support_motion
     dt, frequency = 1e-5, 4000.0
     t = dt * np.arange(5000)
     rig_values = RigParameters(vibration_frequency_Hz=frequency,
@@ -307,7 +308,7 @@ def test_a_steady_noisy_vibration_is_fitted_as_one() -> None:
     sqrt(6 / 10000) = 0.024 of it (measured 0.023; a band filter at f/64 left 0.09), the
     vibration within 0.5 % of its amplitude (measured 0.05 %)."""
     from vibrofriction.identify.replay import vibration_band
-    from vibrofriction.reference import support_motion
+    from vibrofriction.oracle.reference import support_motion
     dt, frequency, amplitude = 1e-5, 4000.0, 1.5e-3
     t = dt * np.arange(10000)
     rig_values = RigParameters(vibration_frequency_Hz=frequency,
@@ -355,8 +356,8 @@ def test_a_vibrating_sensor_record_is_replayed_on_a_grid_that_slides_along_the_v
     would repeat every period (its discretization error would not average out); the replay
     takes N + 0.382 steps a period and reads the samples between steps. A record a simulator
     made keeps its own step."""
-    from vibrofriction import synthetic
-    from vibrofriction.rig import STEP_PHASE_SLIDE
+    from vibrofriction.data import synthetic
+    from vibrofriction.rigs.rig import STEP_PHASE_SLIDE
     record = synthetic.lab_record(synthetic.lab_scenario(None))
     replay = prepare_replay(record)
     period_steps = 1.0 / (record.metadata.vibration_frequency_Hz * replay.timestep_s)
@@ -385,7 +386,7 @@ def test_the_true_values_replay_a_strongly_vibrated_lab_record_to_its_noise():
     force misses the record by its sensor noise (0.05 N) and its position by a few nm (noise
     1 nm). On a grid repeating every period the slider sat 33 nm behind the record from the
     vibration's start on, 3.2e-8 m rms (docs/physics.md)."""
-    from vibrofriction import synthetic
+    from vibrofriction.data import synthetic
     scenario = replace(synthetic.lab_scenario(None), duration_s=0.1)
     record = synthetic.lab_record(scenario)
     replay = prepare_replay(record)
@@ -531,7 +532,7 @@ def test_a_vibrometer_showing_only_noise_leaves_the_support_still() -> None:
     """A support that does not vibrate, measured by a noisy vibrometer: its noise is not
     replayed as motion (it would dither the contact); a vibration of 3 noise sd (twice the
     threshold) is kept."""
-    from vibrofriction import synthetic
+    from vibrofriction.data import synthetic
     still = synthetic.with_sensor_noise(_stick_slip_record(0.03))
     replay = prepare_replay(still)
     assert not replay.vibrating
@@ -545,7 +546,7 @@ def test_a_vibrometer_showing_only_noise_leaves_the_support_still() -> None:
 def test_no_stick_phases_without_slips_or_on_a_vibrating_support() -> None:
     """A noisy record of a slider that never slips (the drive end at 10 um/s loads the spring
     to 10 % of breakaway), and a vibrating record, are not cut into segments."""
-    from vibrofriction import synthetic
+    from vibrofriction.data import synthetic
     from vibrofriction.identify.replay import stick_phase_steps
     creeping = replace(STICK_SLIP_RIG, drive_velocity_m_per_s=1e-5)
     run = rig.simulate(creeping, STICK_SLIP, timestep_s=2e-5, duration_s=0.1)

@@ -1,8 +1,11 @@
-"""The package's layering, read from the sources: the command line is the top layer (no command
-imports it), and the independent oracle (scipy reference, analytic limits) reaches none of the
-native laws, not even through another module of the package. (The package's own
-``__init__``, which every import of a submodule runs, loads the plugin library; it is not the
-oracle's code and is left out.)"""
+"""The package's layering, read from the sources (docs/DEVELOPING.md has the layout): the
+command line is the top layer (no command imports it, and nothing below imports a command);
+the laws' binding (``vibrofriction.laws``) reaches nothing but itself and the shared
+parameters; and the independent oracle (``vibrofriction.oracle``: scipy reference, analytic
+limits, the feeder's exact reference) and the synthetic records made from it reach none of the
+native laws nor a MuJoCo model of them, not even through another module of the package or a
+subpackage's ``__init__``. (The package's own ``__init__``, which every import of a submodule
+runs, loads the plugin library; it is not the oracle's code and is left out.)"""
 from __future__ import annotations
 
 import ast
@@ -58,7 +61,27 @@ def _reached(start: str) -> set[str]:
             continue
         seen.add(name)
         todo.extend(_imports(path))
+        todo.append(name.rpartition(".")[0])  # importing a.b.c runs a.b's __init__ first
     return seen
+
+
+def _modules(subpackage: str) -> list[str]:
+    """Every module of a subpackage of vibrofriction, the package's __init__ included."""
+    folder = PACKAGE / subpackage
+    names = [f"vibrofriction.{subpackage}.{p.stem}" for p in sorted(folder.glob("*.py"))
+             if p.name != "__init__.py"]
+    return [f"vibrofriction.{subpackage}"] + names
+
+
+# what runs the friction laws natively, or a MuJoCo model with the native elements
+NATIVE = ("vibrofriction.laws", "vibrofriction.rigs", "vibrofriction.robots")
+# the shared ground every layer may use
+FOUNDATION = {"vibrofriction.params", "vibrofriction.vocabulary", "vibrofriction.errors",
+              "vibrofriction._build_info"}
+
+
+def _is_native(name: str) -> bool:
+    return any(name == n or name.startswith(n + ".") for n in NATIVE)
 
 
 def test_no_command_imports_the_command_line() -> None:
@@ -68,11 +91,29 @@ def test_no_command_imports_the_command_line() -> None:
         assert "vibrofriction.cli" not in _imports(path), path.name
 
 
+def test_nothing_below_the_command_line_imports_it() -> None:
+    for path in sorted(PACKAGE.rglob("*.py")):
+        relative = path.relative_to(PACKAGE)
+        if relative.parts[0] in ("commands", "cli.py", "__main__.py"):
+            continue
+        top = {n for n in _imports(path)
+               if n.startswith(("vibrofriction.cli", "vibrofriction.commands"))}
+        assert not top, (str(relative), sorted(top))
+
+
+def test_the_laws_reach_only_themselves_and_the_parameters() -> None:
+    for module in _modules("laws"):
+        reached = _reached(module)
+        assert module in reached
+        outside = {n for n in reached if not n.startswith("vibrofriction.laws")} - FOUNDATION
+        assert not outside, (module, sorted(outside))
+
+
 def test_the_oracle_reaches_none_of_the_native_laws() -> None:
-    native = {"vibrofriction._native", "vibrofriction.laws", "vibrofriction.rig",
-              "vibrofriction._mujoco_plugins", "vibrofriction.planar"}
-    for oracle in ("vibrofriction.reference", "vibrofriction.analytic",
-                   "vibrofriction.synthetic"):
-        reached = _reached(oracle)
-        assert oracle in reached
-        assert not reached & native, (oracle, sorted(reached & native))
+    oracle = _modules("oracle")
+    assert len(oracle) >= 4  # reference, analytic, feeder_reference and the __init__
+    for module in oracle + ["vibrofriction.data.synthetic"]:
+        reached = _reached(module)
+        assert module in reached
+        native = sorted(n for n in reached if _is_native(n))
+        assert not native, (module, native)

@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 from scipy.interpolate import CubicSpline
 
-from vibrofriction import laws, reference
-from vibrofriction import rig as rig_module
+from vibrofriction import laws
+from vibrofriction.oracle import reference
+from vibrofriction.rigs import rig as rig_module
 from vibrofriction.params import FrictionParameters, ParameterError, RigParameters, \
     apply_overrides, default_friction
 

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from vibrofriction import cli
-from vibrofriction import rig as rig_module
-from vibrofriction.convert import convert_emps
-from vibrofriction.datasets import Dataset, DatasetMetadata, write_dataset
+from vibrofriction.rigs import rig as rig_module
+from vibrofriction.data.convert import convert_emps
+from vibrofriction.data.datasets import Dataset, DatasetMetadata, write_dataset
 from vibrofriction.errors import InputError
 from vibrofriction.identify.machine_replay import BUNDLED, closed_loop_errors
 from vibrofriction.identify.replay import Replayer, prepare_replay
@@ -169,7 +169,7 @@ def _synthetic_emps_record(tmp_path: Path, seconds: float = 4.0) -> tuple[Path, 
 
 
 def test_a_machine_record_round_trips_through_its_closed_loop(tmp_path):
-    from vibrofriction.datasets import read_dataset
+    from vibrofriction.data.datasets import read_dataset
     from vibrofriction.identify import simulation_report
     path, truth = _synthetic_emps_record(tmp_path)
     result = identify_by_simulation(read_dataset(path), law="coulomb", declared=["viscous"])
@@ -238,7 +238,7 @@ def test_emps_pulses_become_the_force_the_command_shows(tmp_path, unit):
     """A validation-style .mat: the logged command is the controller law plus pulses; the
     converter reads their unit from the data."""
     from scipy.io import savemat
-    from vibrofriction.convert import convert_emps as convert
+    from vibrofriction.data.convert import convert_emps as convert
     n, T, gtau = 2000, 1e-3, 35.15
     t = np.arange(n) * T
     rng = np.random.default_rng(3)
@@ -364,7 +364,7 @@ def test_a_scene_keeps_its_own_normal_load_and_needs_named_plugins(tmp_path):
         "time_s": t, "position_m": 1e-3 * np.sin(20 * t), "drive_force_N": np.sin(50 * t)})
     path = tmp_path / "r.csv"
     write_dataset(record, path)
-    from vibrofriction.datasets import read_dataset
+    from vibrofriction.data.datasets import read_dataset
     replay = prepare_replay(read_dataset(path))  # the sidecar's path is the record's folder's
     assert replay.scene.path == scene.resolve() and replay.rig.normal_force_N == 40.0
     spec = replay.spec(replace(replay.rig, mass_kg=1.0),

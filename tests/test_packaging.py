@@ -10,7 +10,7 @@ import mujoco
 import pytest
 
 from vibrofriction import _build_info
-from vibrofriction._mujoco_plugins import SUPPORTED_MUJOCO
+from vibrofriction.laws._mujoco_plugins import SUPPORTED_MUJOCO
 
 ROOT = Path(__file__).resolve().parents[1]
 PYPROJECT = ROOT / "pyproject.toml"

@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from vibrofriction import planar, rig as rig_module
+from vibrofriction.rigs import planar, rig as rig_module
 from vibrofriction.params import FrictionParameters, ParameterError, RigParameters, default_friction
 
 LAWS = ("coulomb", "dahl", "dupont", "lugre", "gms")

@@ -19,7 +19,7 @@ from conftest import PAPER_FRICTION_BOUND_N
 from scipy.optimize import brentq
 
 from vibrofriction import laws
-from vibrofriction import rig as rig_module
+from vibrofriction.rigs import rig as rig_module
 from vibrofriction.params import FrictionParameters, RigParameters, default_friction
 
 HEAVY_MASS_KG = 500.0

@@ -19,9 +19,9 @@ import numpy as np
 import pytest
 from conftest import PAPER_FRICTION_BOUND_N, rms, run_rollout, skip_unless_builtin
 
-from vibrofriction import rig as rig_module
+from vibrofriction.rigs import rig as rig_module
 from vibrofriction.params import RigParameters, default_friction
-from vibrofriction.python_law import bare_rig_spec
+from vibrofriction.rigs.python_law import bare_rig_spec
 from vibrofriction.summary import summarize
 
 PERIOD_S = 1 / 4000

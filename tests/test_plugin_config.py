@@ -13,8 +13,8 @@ import mujoco
 import pytest
 
 import vibrofriction
-from vibrofriction import planar
-from vibrofriction import rig as rig_module
+from vibrofriction.rigs import planar
+from vibrofriction.rigs import rig as rig_module
 from vibrofriction.params import LIMITS, RigParameters, default_friction
 from vibrofriction.vocabulary import TERMS_BY_NAME
 
@@ -396,7 +396,7 @@ def test_a_second_copy_at_another_path_is_refused(tmp_path):
 
     script = (
         "import shutil, sys, mujoco, vibrofriction\n"
-        "from vibrofriction import _native\n"
+        "from vibrofriction.laws import _native\n"
         "vibrofriction.load()\n"
         "assert _native.library_path().is_absolute()\n"
         "copy = shutil.copy(_native.library_path(), sys.argv[1])\n"
@@ -412,7 +412,7 @@ def test_a_second_copy_at_another_path_is_refused(tmp_path):
 
 def _entry_point_installed() -> bool:
     from importlib.metadata import entry_points
-    return any(ep.value == "vibrofriction._mujoco_plugins:register"
+    return any(ep.value == "vibrofriction.laws._mujoco_plugins:register"
                for ep in entry_points(group="mujoco.plugins"))
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import vibrofriction
-from vibrofriction import rig as rig_module
+from vibrofriction.rigs import rig as rig_module
 from vibrofriction.params import RigParameters, default_friction
 
 

@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from vibrofriction import rig as rig_module
+from vibrofriction.rigs import rig as rig_module
 from vibrofriction.params import RigParameters, default_friction
 
 FREQUENCY_HZ = 4000.0
@@ -60,7 +60,7 @@ def test_drive_end_moves_at_the_drive_velocity():
 def test_a_vibration_started_later_follows_the_reference_build_up():
     """vibration_from_s: the table stands still, then its amplitude builds up over
     VIBRATION_RAMP_PERIODS periods exactly as the scipy reference moves it."""
-    from vibrofriction import reference
+    from vibrofriction.oracle import reference
     from vibrofriction.params import VIBRATION_RAMP_PERIODS
 
     rig = RigParameters(vibration_velocity_amplitude_m_per_s=VA, vibration_from_s=0.004)

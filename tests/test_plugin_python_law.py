@@ -1,4 +1,4 @@
-"""The Python-callback path (vibrofriction.python_law): the rig with the native friction element
+"""The Python-callback path (vibrofriction.rigs.python_law): the rig with the native friction element
 replaced by a general actuator with dyntype="user" whose zdot comes from a Python function via
 MuJoCo's mjcb_act_dyn. It must match the native plugin and always remove its callback.
 
@@ -14,10 +14,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from vibrofriction import rig as rig_module
+from vibrofriction.rigs import rig as rig_module
 from vibrofriction.params import ParameterError, RigParameters, default_friction
-from vibrofriction.python_law import (ContactParameters, act_dyn_callback, bare_rig_spec,
-                                      dahl_zdot, python_law_spec, simulate_python_law)
+from vibrofriction.rigs.python_law import (ContactParameters, act_dyn_callback, bare_rig_spec,
+                                           dahl_zdot, python_law_spec, simulate_python_law)
 
 
 @pytest.mark.parametrize("va", [0.75e-3, 3e-3])

@@ -1,4 +1,4 @@
-"""The MuJoCo plugin against the independent scipy oracle (vibrofriction.reference) at the paper's
+"""The MuJoCo plugin against the independent scipy oracle (vibrofriction.oracle.reference) at the paper's
 parameters (Gutowski & Leus 2012: m 0.5 kg, k_t 80 N/um, v_d 0.5 mm/s, f 4 kHz).
 
 Measured here (mean drive force, plugin vs oracle): Dahl 0.75 mm/s -0.31 % at dt 1e-5 s and
@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 from conftest import PAPER_FRICTION_BOUND_N, rms
 
-from vibrofriction import rig as rig_module
+from vibrofriction.rigs import rig as rig_module
 from vibrofriction.params import RigParameters, default_friction
-from vibrofriction.reference import simulate_reference
+from vibrofriction.oracle.reference import simulate_reference
 
 VIBRATION_PERIOD_S = 1.0 / 4000.0
 
@@ -108,7 +108,7 @@ def test_dynamometer_lag_is_the_first_order_lag_of_the_spring():
     rounding. Reading one step early or late is off by the extension's change over a step,
     10^4 times more than the tolerance; without the lag the reading is the length itself."""
     import mujoco
-    from vibrofriction.reference import first_order_lag
+    from vibrofriction.oracle.reference import first_order_lag
     rig = RigParameters(vibration_velocity_amplitude_m_per_s=1.5e-3)
     friction = default_friction("lugre", rig)
     dt, tau, steps = 1e-6, 5e-5, 4000

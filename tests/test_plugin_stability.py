@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from conftest import PAPER_FRICTION_BOUND_N
 
-from vibrofriction import rig as rig_module
+from vibrofriction.rigs import rig as rig_module
 from vibrofriction.params import LAWS, RigParameters, default_friction
-from vibrofriction.python_law import simulate_python_law
+from vibrofriction.rigs.python_law import simulate_python_law
 
 
 @pytest.mark.parametrize("timestep_s", [1e-6, 1e-5, 1e-4])

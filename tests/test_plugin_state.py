@@ -17,7 +17,7 @@ import pytest
 from conftest import FULL, initial_state
 from mujoco import rollout as mj_rollout
 
-from vibrofriction import rig as rig_module
+from vibrofriction.rigs import rig as rig_module
 from vibrofriction.params import RigParameters, default_friction
 
 PREFIX_STEPS = 3000  # 30 ms at 1e-5 s: loaded past breakaway, vibrating, sign changes

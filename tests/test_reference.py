@@ -1,8 +1,8 @@
-"""The scipy oracle (vibrofriction.reference): conservation checks, analytic limits, effects.
+"""The scipy oracle (vibrofriction.oracle.reference): conservation checks, analytic limits, effects.
 
 Paper rig: m 0.5 kg, k_d 1e6 N/m, v_d 0.5 mm/s, f 4 kHz, F_N 55.2 N, mu 0.2 (mu F_N = 11.04 N).
 The heavy-body rig (500 kg, stiff critically damped drive) settles in ~20 ms and moves almost
-uniformly, so it must reproduce the kinematic formulas of vibrofriction.analytic.
+uniformly, so it must reproduce the kinematic formulas of vibrofriction.oracle.analytic.
 """
 import ast
 import math
@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 from scipy.signal import lsim
 
-import vibrofriction.reference as reference_module
-from vibrofriction import analytic
+import vibrofriction.oracle.reference as reference_module
+from vibrofriction.oracle import analytic
 from vibrofriction.params import (PAPER_NORMAL_FORCE_N, FrictionParameters, ParameterError,
                                   RigParameters, default_friction)
-from vibrofriction.reference import simulate_reference
+from vibrofriction.oracle.reference import simulate_reference
 
 BOUND_N = 0.2 * PAPER_NORMAL_FORCE_N  # mu F_N
 LAWS = ["coulomb", "dahl", "dupont", "lugre"]

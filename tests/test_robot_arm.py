@@ -1,4 +1,4 @@
-"""A real arm with the drop-in elements (``vibrofriction.robot_arm``): dm_control's Kinova Jaco
+"""A real arm with the drop-in elements (``vibrofriction.robots.robot_arm``): dm_control's Kinova Jaco
 sets a part on a vibrating inclined plate and picks a part off a vibratory feeder, at its own
 1 ms timestep. Checked: the placed part creeps down the slope at the heavy-body value with
 vibration and holds without; the feeder conveys the part to the stop, where the arm picks it
@@ -20,7 +20,7 @@ pytestmark = pytest.mark.skipif(importlib.util.find_spec("dm_control") is None,
 
 @pytest.fixture(scope="module")
 def robot_arm():
-    from vibrofriction import robot_arm
+    from vibrofriction.robots import robot_arm
     return robot_arm
 
 

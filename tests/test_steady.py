@@ -1,4 +1,4 @@
-"""Runs to steady state (vibrofriction.steady): converged by default, flagged when not, the same
+"""Runs to steady state (vibrofriction.rigs.steady): converged by default, flagged when not, the same
 alone or in any batch.
 
 Measured (Dahl, the paper's rig with a soft drive spring k_d = 2e5 N/m, mu 0.15, v_a 0.75 mm/s):
@@ -14,12 +14,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from vibrofriction import rig as rig_module
+from vibrofriction.rigs import rig as rig_module
 from vibrofriction.cli import main
 from vibrofriction.params import RigParameters, default_friction
-from vibrofriction.steady import (DEFAULT_TOLERANCE, hann_mean, judge, run_until_steady,
-                                  window_length_s)
-from vibrofriction.sweep import sweep
+from vibrofriction.rigs.steady import (DEFAULT_TOLERANCE, hann_mean, judge, run_until_steady,
+                                       window_length_s)
+from vibrofriction.rigs.sweep import sweep
 
 SOFT = RigParameters(drive_stiffness_N_per_m=2e5, vibration_velocity_amplitude_m_per_s=0.75e-3)
 SOFT_FRICTION = replace(default_friction("dahl", SOFT), friction_coefficient=0.15)

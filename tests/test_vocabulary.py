@@ -11,9 +11,10 @@ from pathlib import Path
 
 import pytest
 
-from vibrofriction import averaged, planar, rig
-from vibrofriction._native import _LawParameters
+from vibrofriction.laws._native import _LawParameters
 from vibrofriction.params import LAWS, LIMITS, FrictionParameters
+from vibrofriction.rigs import planar, rig
+from vibrofriction.robots import averaged
 from vibrofriction.vocabulary import (ALL_ELEMENTS, ALL_LAWS, FRICTION_TERMS, LAW_STRUCT_FIELDS,
                                       MAX_GMS_ELEMENTS, MAX_MAP_KNOTS, PAPER_LAWS, TERMS_BY_NAME, element_keys)
 
@@ -22,10 +23,12 @@ CPP = ROOT / "plugin" / "cpp"
 
 # Each element's source and its keys that are no friction term: written out here, so that a
 # friction key the C++ adds or drops and the table does not is a failure, not an own key.
-ELEMENT_SOURCES = {"friction": "friction_element.cc", "planar": "planar_friction.cc",
-                   "contact": "contact_friction.cc", "averaged": "averaged_friction.cc",
-                   "contact_averaged": "contact_friction.cc",
-                   "contact_feeder": "contact_friction.cc"}
+ELEMENT_SOURCES = {"friction": "plugins/friction_element.cc",
+                   "planar": "plugins/planar_friction.cc",
+                   "contact": "plugins/contact_friction.cc",
+                   "averaged": "plugins/averaged_friction.cc",
+                   "contact_averaged": "plugins/contact_friction.cc",
+                   "contact_feeder": "plugins/contact_friction.cc"}
 # The name of each element's attribute array in its source (two plugins share contact's).
 ATTRIBUTE_ARRAYS = {"contact_averaged": "kAveragedAttributes",
                     "contact_feeder": "kFeederAttributes"}
@@ -115,7 +118,7 @@ def test_the_table_names_known_elements_laws_and_shaped_effects() -> None:
 
 
 def test_the_cpp_law_parameters_have_the_tables_defaults() -> None:
-    header = _cpp("friction_law.h")
+    header = _cpp("laws/friction_law.h")
     struct = re.search(r"struct LawParameters \{(.*?)\};", header, re.S).group(1)
     struct = re.sub(r"//[^\n]*", "", struct)
     declared = re.findall(r"\b(\w+) (\w+) = ([^;]+);", struct)
@@ -159,7 +162,8 @@ def test_the_cpp_law_parameters_have_the_tables_defaults() -> None:
 def test_the_config_readers_read_each_key_into_its_field_with_the_tables_default() -> None:
     """element_config.cc and friction_element.cc read {kKey, &field, default}; the keys'
     strings are the constants of element_config.h and friction_element.cc."""
-    sources = _cpp("element_config.h") + _cpp("element_config.cc") + _cpp("friction_element.cc")
+    sources = (_cpp("common/element_config.h") + _cpp("common/element_config.cc")
+               + _cpp("plugins/friction_element.cc"))
     constants = _key_constants(sources)
     read = {constants[key]: (field, _number(value)) for key, field, value in re.findall(
         r"\{(k\w+), &\w+\.(\w+), ([-+0-9.eE]+)\}", sources)}
@@ -190,7 +194,7 @@ def test_each_elements_attributes_are_the_table_keys_it_takes(element: str) -> N
     """The kAttributes array MuJoCo checks an element's config against: its own keys and,
     beyond them, exactly the table keys whose row names the element."""
     source = _cpp(ELEMENT_SOURCES[element])
-    constants = _key_constants(_cpp("element_config.h") + source)
+    constants = _key_constants(_cpp("common/element_config.h") + source)
     array = ATTRIBUTE_ARRAYS.get(element, "kAttributes")
     attributes = re.search(rf"\b{array}\[\] = \{{(.*?)\}};", source, re.S).group(1)
     listed = [constants[k] for k in re.findall(r"\bk\w+", attributes)]
@@ -207,7 +211,7 @@ def test_each_elements_attributes_are_the_table_keys_it_takes(element: str) -> N
 
 
 def test_the_c_api_struct_and_the_ctypes_layout_are_the_tables() -> None:
-    struct = re.search(r"typedef struct vf_law_parameters \{(.*?)\}", _cpp("c_api.h"),
+    struct = re.search(r"typedef struct vf_law_parameters \{(.*?)\}", _cpp("c_api/c_api.h"),
                        re.S).group(1)
     struct = re.sub(r"//[^\n]*", "", struct)
     declared = [(kind, name.strip()) for kind, names in
@@ -331,10 +335,10 @@ def test_the_one_copy_from_the_c_struct_fills_every_field() -> None:
     """LawFromStruct (c_api.cc) is the only place that fills LawParameters from the C struct
     (vf_run_law and vf_run_planar_law both use it): every struct field, each to its own name."""
     body = re.search(r"LawParameters LawFromStruct\(const vf_law_parameters& c\) \{(.*?)\n\}",
-                     _cpp("c_api.cc"), re.S).group(1)
+                     _cpp("c_api/c_api.cc"), re.S).group(1)
     copied = re.findall(r"p\.(\w+) = c\.(\w+);", body)
     assert sorted(copied) == sorted((field, field) for field in LAW_STRUCT_FIELDS)
-    for source in ("c_api.cc", "planar_friction.cc"):
+    for source in ("c_api/c_api.cc", "plugins/planar_friction.cc"):
         assert "params->friction_coefficient" not in _cpp(source), f"a second copy in {source}"
 
 

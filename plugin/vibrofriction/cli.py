@@ -14,7 +14,7 @@ import re
 import sys
 from typing import Any, Sequence
 
-from ._native import MujocoVersionMismatch
+from .laws._native import MujocoVersionMismatch
 from .commands.common import UsageError, check_outputs  # noqa: F401 (UsageError: the API)
 from .errors import InputError
 

@@ -3,12 +3,12 @@
 // symmetric law's): off the axis to the differences' own error; along it, in the pure along and
 // pure across directions (between them the along part has a kink, which the Jacobian takes flat).
 // Exit status 0: every check held.
-// sources: averaged_friction.cc planar_friction.cc friction_law.cc plugin_util.cc element_config.cc c_api.cc
+// sources: plugins/averaged_friction.cc plugins/planar_friction.cc laws/friction_law.cc common/plugin_util.cc common/element_config.cc c_api/c_api.cc
 #include <cmath>
 #include <cstdio>
 #include <random>
 
-#include "averaged_friction.h"
+#include "plugins/averaged_friction.h"
 
 using namespace vibrofriction;
 

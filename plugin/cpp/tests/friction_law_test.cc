@@ -3,11 +3,11 @@
 // any alpha; LuGre's steady force, the Stribeck curve g(v) + sigma2 v; the Stribeck level's ends;
 // Coulomb's stick/slip decision; the vector laws equal the 1D ones on one axis and turn with
 // the velocity (isotropy). Exit status 0: every check held.
-// sources: friction_law.cc
+// sources: laws/friction_law.cc
 #include <cmath>
 #include <cstdio>
 
-#include "friction_law.h"
+#include "laws/friction_law.h"
 
 using namespace vibrofriction;
 

@@ -48,7 +48,7 @@ def parse_overrides(pairs: Sequence[str]) -> dict[str, str]:
 def write_json(path: Path | None, payload: Any) -> None:
     """Write JSON atomically (temp file + rename) so a failure leaves nothing half-written;
     inside ``datasets.all_or_nothing()`` together with the block's other outputs."""
-    from ..datasets import stage_file
+    from ..data.datasets import stage_file
 
     from ..provenance import json_text
 
@@ -95,7 +95,7 @@ def check_writable(path: Path, option: str, *, inside: bool = False) -> None:
 def check_outputs(args: argparse.Namespace) -> None:
     """Every output target of the command, before it runs: a failing command computes nothing
     and writes nothing (the writes themselves are all-or-nothing: datasets.all_or_nothing)."""
-    from ..datasets import sidecar_path
+    from ..data.datasets import sidecar_path
 
     files: list[tuple[str, str, Path]] = []  # (label in messages, what it is, file)
     out = getattr(args, "out", None)

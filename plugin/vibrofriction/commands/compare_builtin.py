@@ -8,7 +8,7 @@ from pathlib import Path
 import mujoco
 
 from .common import add_common_arguments, check_replaceable_folder, parse_overrides, write_json
-from ..datasets import all_or_nothing, stage_folder
+from ..data.datasets import all_or_nothing, stage_folder
 from ..provenance import json_text
 from ..params import PAPER_CONTACT_STIFFNESS_N_PER_M, FrictionParameters, ParameterError, \
     apply_overrides

@@ -4,8 +4,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..convert import CONVERTERS, convert
-from ..datasets import DatasetError, sidecar_path, write_dataset
+from ..data.convert import CONVERTERS, convert
+from ..data.datasets import DatasetError, sidecar_path, write_dataset
 
 HELP = ("convert a real friction record (EMPS .mat, friction-damper .json, pneumatic-seal "
         "text) to the dataset format: OUTPUT.csv (or .csv.gz) plus OUTPUT.json")

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from .common import (UsageError, check_output_folder, check_replaceable_folder, check_writable,
                      parse_overrides, write_json)
-from ..datasets import Dataset, all_or_nothing, read_dataset
+from ..data.datasets import Dataset, all_or_nothing, read_dataset
 from ..identify import MIN_IMPROVEMENT, identify
 from ..identify.model import INVERSE_EFFECTS, RIG_EFFECTS
 from ..identify.report import report_json, rig_replay, write_report

@@ -16,13 +16,13 @@ from typing import Any
 import mujoco
 
 from .. import __version__, _build_info
-from .._mujoco_plugins import library_path
-from .._native import MujocoVersionMismatch, load
+from ..laws._mujoco_plugins import library_path
+from ..laws._native import MujocoVersionMismatch, load
 from .common import write_json
 
 HELP = ("show the versions, the plugin library and the plugins with their MJCF attributes "
         "(from MuJoCo's plugin registry)")
-ENTRY_POINT = "vibrofriction._mujoco_plugins:register"
+ENTRY_POINT = "vibrofriction.laws._mujoco_plugins:register"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from .common import add_common_arguments, check_replaceable_folder, parse_overrides, write_json
-from ..datasets import all_or_nothing, stage_folder
+from ..data.datasets import all_or_nothing, stage_folder
 from ..params import PAPER_CONTACT_STIFFNESS_N_PER_M, ParameterError, apply_overrides
 from ..study.claims import _clean, summary_json
 from ..study.config import PAPER_RIG, StudyConfig

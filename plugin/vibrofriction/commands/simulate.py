@@ -15,13 +15,13 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from .. import rig as rig_module
+from ..rigs import rig as rig_module
 from .common import UsageError, add_common_arguments, parse_overrides, write_json
-from ..datasets import (MIN_SAMPLE_INTERVAL_S, Dataset, DatasetMetadata, all_or_nothing,
-                        sidecar_path, write_dataset)
+from ..data.datasets import (MIN_SAMPLE_INTERVAL_S, Dataset, DatasetMetadata, all_or_nothing,
+                             sidecar_path, write_dataset)
 from ..params import FrictionParameters, RigParameters, apply_overrides, as_dict, default_friction
-from ..steady import DEFAULT_MAX_DURATION_S, DEFAULT_TOLERANCE, SteadyRun, longest_run_s
-from ..sweep import convergence_fields, run_cases, unconverged_line
+from ..rigs.steady import DEFAULT_MAX_DURATION_S, DEFAULT_TOLERANCE, SteadyRun, longest_run_s
+from ..rigs.sweep import convergence_fields, run_cases, unconverged_line
 
 MAX_STEPS = 5e8  # steps of one run: hours of wall time and gigabytes of recorded series
 

@@ -12,7 +12,7 @@ import sys
 from dataclasses import replace
 
 from .common import UsageError, add_common_arguments, write_json
-from ..sweep import sweep, unconverged_lines
+from ..rigs.sweep import sweep, unconverged_lines
 from .simulate import add_run_arguments, parameters_from_args, run_settings
 
 HELP = ("master curve: mean drive force over the vibration velocity amplitudes --va "

@@ -33,8 +33,8 @@ from typing import Mapping, Sequence
 import mujoco
 import numpy as np
 
-from .. import rig as rig_module
-from ..datasets import Dataset, smoothed_derivative
+from ..rigs import rig as rig_module
+from ..data.datasets import Dataset, smoothed_derivative
 from ..errors import InputError
 from ..params import FrictionParameters, RigParameters
 from .replay import (SampleGrid, contact_at_rest, full_state, grid_steps, noise_sd,

@@ -22,7 +22,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 from scipy.signal import lfilter
 
-from ..laws import run_law
+from ..laws.run import run_law
 from ..params import LIMITS, FrictionParameters
 from .record import Record
 

@@ -22,7 +22,7 @@ import numpy as np
 from scipy.interpolate import make_interp_spline
 from scipy.signal import butter, sosfiltfilt
 
-from ..datasets import Dataset, DatasetError, smoothed_derivative
+from ..data.datasets import Dataset, DatasetError, smoothed_derivative
 from ..errors import InputError
 
 # Fraction of a substep left between the midpoint-carrying point and the substep's end.

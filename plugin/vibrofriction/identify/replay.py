@@ -46,8 +46,8 @@ from scipy.signal import butter, sosfiltfilt
 from scipy.sparse import hstack, identity
 from scipy.sparse.linalg import spsolve
 
-from .. import rig as rig_module
-from ..datasets import Dataset, smoothed_derivative
+from ..rigs import rig as rig_module
+from ..data.datasets import Dataset, smoothed_derivative
 from ..errors import InputError
 from ..params import FrictionParameters, RigParameters
 

@@ -8,7 +8,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..datasets import stage_folder
+from ..data.datasets import stage_folder
 from ..params import RigParameters
 from ..provenance import json_text
 from .fit import FitResult
@@ -266,7 +266,7 @@ def rig_replay(result: Identification, dataset_metadata, timestep_s: float = 1e-
     drive_velocity_m_per_s, normal_force_N) that start from rest at t = 0. The support is
     u0 sin(2 pi f t) with the measured velocity amplitude, as the rig's motion plugin makes it.
     """
-    from .. import rig as rig_module
+    from ..rigs import rig as rig_module
 
     record = result.train
     meta = dataset_metadata

@@ -29,8 +29,8 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from .. import rig as rig_module
-from ..datasets import Dataset
+from ..rigs import rig as rig_module
+from ..data.datasets import Dataset
 from ..errors import InputError
 from ..params import LAWS, FrictionParameters
 from .analysis import ResidualAnalysis, analyse

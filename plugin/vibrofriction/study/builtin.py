@@ -34,7 +34,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
-from .. import rig as rig_module
+from ..rigs import rig as rig_module
 from ..params import FrictionParameters, ParameterError, RigParameters
 from ..summary import RunSummary, summarize
 from .config import MM_PER_S, STATIC_TIMESTEP_S, StudyConfig, period_timestep

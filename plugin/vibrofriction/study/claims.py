@@ -28,7 +28,7 @@ from .config import (EXPERIMENT_FIG13, EXPERIMENT_FIG14, MM_PER_S, N_PER_UM, Stu
 from .figures import ExperimentTraces, MasterPoint, StiffnessStudy, curve
 from .output import LAW_LABELS
 from .runner import Trace
-from ..steady import hann_mean
+from ..rigs.steady import hann_mean
 from .sweep import SweepResult
 
 NO_REDUCTION_TOLERANCE = 0.01  # |1 - F_dv/F_ds| that counts as "no reduction"
@@ -101,7 +101,7 @@ def _deviations(points, below: bool) -> dict[str, float]:
 
 def _oracle_check(results: StudyResults, worst_below: float) -> dict[str, Any] | None:
     """The worst kappa_v < 1 reduction of the Fig. 14 configuration, re-run with the
-    independent scipy oracle (``vibrofriction.reference``), when there is one."""
+    independent scipy oracle (``vibrofriction.oracle.reference``), when there is one."""
     if not worst_below > NO_REDUCTION_TOLERANCE:
         return None
     cands = [p for p in results.fig14 if p.kappa < 1 - 1e-9]
@@ -111,7 +111,7 @@ def _oracle_check(results: StudyResults, worst_below: float) -> dict[str, Any] |
     if abs(1 - p.ratio) <= NO_REDUCTION_TOLERANCE:
         return None
     try:
-        from .. import reference
+        from ..oracle import reference
     except ImportError:  # pragma: no cover - reference.py ships with the package
         return None
     rig = EXPERIMENT_FIG14.rig(p.vibration_velocity_amplitude_m_per_s, base=results.config.rig)
@@ -201,7 +201,7 @@ def claim_no_reduction(results: StudyResults) -> Claim:
         notes.append(
             f"{EXPERIMENT_FIG14.figure} configuration, {LAW_LABELS[oracle['law']]} at kappa_v = "
             f"{oracle['kappa']:.3g}: F_dv/F_ds = {oracle['ratio']:.3f} (independent scipy "
-            f"oracle, vibrofriction.reference: {oracle['oracle_ratio']:.3f}). Dahl's tangent "
+            f"oracle, vibrofriction.oracle.reference: {oracle['oracle_ratio']:.3f}). Dahl's tangent "
             "stiffness is k_t (1 - F/F_c) when loading but up to 2 k_t when unloading, so the "
             "slider-on-contact resonance spans sqrt(k_t/m)/2pi ... sqrt(2 k_t/m)/2pi = "
             f"{oracle['band_Hz'][0]:.0f}-{oracle['band_Hz'][1]:.0f} Hz here, and the "
@@ -488,7 +488,7 @@ def _choices(results: StudyResults) -> list[str]:
         "per doubling of kappa_v above (see study/config.py); static runs 10 us.",
         "Mean drive force: each run goes on until its Hann-weighted mean over windows of "
         "whole vibration periods (about 40 ms, a quarter window apart, after two spring "
-        "loadings + 30 ms) has converged to 0.1 % (vibrofriction.steady).",
+        "loadings + 30 ms) has converged to 0.1 % (vibrofriction.rigs.steady).",
     ]
 
 
@@ -514,7 +514,7 @@ def summary_json(results: StudyResults, claims: Sequence[Claim]) -> dict[str, An
 
 
 def convergence_summary(results: StudyResults) -> dict[str, Any]:
-    """How many of the study's mean-force runs converged (vibrofriction.steady), and which
+    """How many of the study's mean-force runs converged (vibrofriction.rigs.steady), and which
     did not."""
     runs = [("master", p) for p in results.master] + [("fig14", p) for p in results.fig14] + [
         ("stiffness", p) for p in results.stiffness.points]

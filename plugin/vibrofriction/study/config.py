@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
-from .. import rig as rig_module
+from ..rigs import rig as rig_module
 from ..params import (PAPER_CONTACT_STIFFNESS_N_PER_M, FrictionParameters, RigParameters,
                       default_friction, lugre_default_bristle_damping)
 

@@ -2,7 +2,7 @@
 
 The kinematic limit of every law -- the body moving exactly at v_d over the vibrating support --
 comes from the plugin's own law code (``laws.kinematic_mean_ratio``); closed forms (arcsin law,
-Dahl at vanishing amplitude) come from ``vibrofriction.analytic``.
+Dahl at vanishing amplitude) come from ``vibrofriction.oracle.analytic``.
 """
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from .. import laws
 from ..params import FrictionParameters, RigParameters
 
 try:  # analytic.py is written alongside this study
-    from .. import analytic as _analytic
+    from ..oracle import analytic as _analytic
 except ImportError:  # pragma: no cover - depends on the checkout
     _analytic = None
 
@@ -44,7 +44,7 @@ def have_analytic() -> bool:
 
 def arcsin_ratios(kappas: Sequence[float]) -> np.ndarray | None:
     """Rigid Coulomb, kinematic: (2/pi) arcsin(1/kappa) for kappa > 1, else 1; None if
-    ``vibrofriction.analytic`` is not available."""
+    ``vibrofriction.oracle.analytic`` is not available."""
     if _analytic is None:  # pragma: no cover - analytic.py ships with the package
         return None
     xi = 1.0 / np.asarray(kappas, dtype=float)

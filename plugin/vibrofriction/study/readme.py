@@ -51,7 +51,7 @@ def _convergence(claims: dict) -> list[str]:
     c = claims.get("convergence")
     if c is None:
         return []
-    text = (f"Every mean drive force is a run to steady state (`vibrofriction.steady`): "
+    text = (f"Every mean drive force is a run to steady state (`vibrofriction.rigs.steady`): "
             f"{c['converged']} of {c['runs']} points converged to 0.1 %, each its run and its "
             "static run")
     if c["unconverged"]:

@@ -13,7 +13,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from ..params import FrictionParameters, RigParameters
-from ..steady import Convergence, run_until_steady
+from ..rigs.steady import Convergence, run_until_steady
 from ..summary import RunSummary
 from .config import STATIC_TIMESTEP_S, StudyConfig
 

@@ -1,0 +1,978 @@
+#include "laws/friction_law.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+namespace vibrofriction {
+namespace {
+
+double Sign(double x) { return (x > 0) - (x < 0); }
+
+// Dahl: |w| after time with d|w|/dt = -(|v|/z_c) |w|^alpha, lambda = |v| dt / z_c.
+// One formula for every alpha >= 0 (log1p form stays accurate as alpha -> 1); for alpha < 1
+// |w| reaches 0 in finite time and stays there.
+double DecayDahlBase(double w_abs, double alpha, double lambda) {
+  if (w_abs <= 0) return 0.0;
+  if (std::fabs(alpha - 1.0) < 1e-12) return w_abs * std::exp(-lambda);
+  const double q = (alpha - 1.0) * lambda * std::pow(w_abs, alpha - 1.0);
+  if (q <= -1.0) return 0.0;
+  return w_abs * std::exp(-std::log1p(q) / (alpha - 1.0));
+}
+
+// Plastic part of Dupont's law along the travel s = |v| t: d(zeta)/ds = f(zeta),
+// f = 1 - a(zeta) zeta / z_max, decreasing from 1 at z_ba to 0 at z_max (and below 0 beyond).
+struct DupontPlastic {
+  double z_ba, z_max, mid, phase_per_m;
+  DupontPlastic(double breakaway, double maximum)
+      : z_ba(breakaway), z_max(maximum), mid(0.5 * (maximum + breakaway)),
+        phase_per_m(kPi / (maximum - breakaway)) {}
+
+  // a(zeta) and da/dzeta (sine and cosine of one angle).
+  double Shape(double zeta, double* slope) const {
+    *slope = 0.0;
+    if (zeta <= z_ba) return 0.0;
+    if (zeta >= z_max) return 1.0;
+    const double angle = phase_per_m * (zeta - mid);
+    *slope = 0.5 * phase_per_m * std::cos(angle);
+    return 0.5 * std::sin(angle) + 0.5;
+  }
+  // The root of zeta = base + c f(zeta), c > 0: a backward-Euler step (base = zeta0, c = h) or a
+  // trapezoidal one (base = zeta0 + h f(zeta0)/2, c = h/2). The residual increases in zeta; the
+  // root lies between base and base + c rate_bound for any rate_bound >= f(base) (f decreases),
+  // and a root beyond z_max (only for c of the order of z_max) is cut to z_max, where the exact
+  // solution stops: zeta never passes z_max. Safeguarded Newton from `guess` (clamped into the
+  // bracket); a Newton step below 1e-7 z_max is accepted without another evaluation, its error
+  // being of the order of step^2 / z_max (quadratic convergence).
+  double Solve(double base, double c, double rate_bound, double guess) const {
+    if (base >= z_max) return z_max;
+    double lo = base;
+    double hi = std::min(z_max, base + c * rate_bound);
+    double zeta = std::clamp(guess, lo, hi);
+    for (int iter = 0; iter < 50; ++iter) {
+      double a_slope;
+      const double a = Shape(zeta, &a_slope);
+      const double r = zeta - base - c * (1.0 - a * zeta / z_max);
+      if (r == 0) return zeta;
+      if (r < 0) {
+        if (zeta >= z_max) return z_max;
+        lo = zeta;
+      } else {
+        hi = zeta;
+      }
+      const double step = r / (1.0 + c * (a_slope * zeta + a) / z_max);
+      const double next = zeta - step;
+      if (!(next > lo && next < hi)) {
+        zeta = 0.5 * (lo + hi);  // bisect
+      } else if (std::fabs(step) <= 1e-7 * z_max) {
+        return next;
+      } else {
+        zeta = next;
+      }
+      if (hi - lo <= 1e-15 * z_max) break;
+    }
+    return zeta;
+  }
+};
+
+// Dupont's a(z, v) along the direction of motion: zeta = sgn(v) z (0 below z_ba, which
+// includes unloading, zeta < 0).
+double DupontShape(double zeta, double z_ba, double z_max) {
+  double slope;
+  return DupontPlastic(z_ba, z_max).Shape(zeta, &slope);
+}
+
+// Trapezoidal substeps per transition width z_max - z_ba: resolves the sine transition (second
+// order). Paper rig, dt 1e-5 s: the mean force is within 0.04 % of its value with 40 substeps
+// (3 substeps; 1 substep: 0.3 %).
+constexpr double kDupontSubstepsPerTransition = 3.0;
+
+double AdvanceDupont(const LawParameters& p, const LawInput& in, double z, double dt) {
+  const double v = in.velocity;
+  const double s = Sign(v);
+  const double speed = std::fabs(v);
+  const double z_max = StribeckLevel(p, in) / p.contact_stiffness;
+  const double z_ba = p.breakaway_ratio * CoulombLevel(p, in, s) / p.contact_stiffness;
+  if (z_max <= 0) return 0.0;
+  double zeta = s * z;
+  double time_left = dt;
+  // Exact elastic segment up to the breakaway deflection.
+  if (zeta < z_ba) {
+    const double t_elastic = (z_ba - zeta) / speed;
+    if (t_elastic >= time_left) return s * (zeta + speed * time_left);
+    zeta = z_ba;
+    time_left -= t_elastic;
+  }
+  // Beyond z_max, a = 1 and the equation is linear: exact exponential relaxation.
+  if (zeta >= z_max) {
+    return s * (z_max + (zeta - z_max) * std::exp(-speed * time_left / z_max));
+  }
+  // Plastic segment: trapezoidal substeps, enough to resolve the sine transition.
+  const DupontPlastic plastic(z_ba, z_max);
+  const double travel = speed * time_left;
+  const int substeps = std::clamp(
+      static_cast<int>(std::ceil(kDupontSubstepsPerTransition * travel / (z_max - z_ba))), 1, 64);
+  const double h = travel / substeps;
+  double a_slope;
+  const double a = plastic.Shape(zeta, &a_slope);
+  double rate = 1.0 - a * zeta / z_max;
+  const double rate_slope = -(a_slope * zeta + a) / z_max;  // df/dzeta, <= 0
+  // Trapezoidal while the substep is short against z_max (always, unless the 64-substep cap
+  // binds: travel > 64 z_max); beyond that backward Euler, which damps the stiff mode for any h
+  // (the planar law needs it; the 1D law follows so that both agree along one axis).
+  const bool trapezoidal = h <= z_max;
+  const double c = trapezoidal ? 0.5 * h : h;
+  for (int i = 0; i < substeps; ++i) {
+    const double base = trapezoidal ? zeta + c * rate : zeta;
+    // Linearly implicit guess (error O(h^3)); the slope of the first substep serves them all.
+    const double guess = zeta + h * rate / (1.0 - c * rate_slope);
+    zeta = plastic.Solve(base, c, rate, guess);
+    rate = zeta < z_max ? (zeta - base) / c : 0.0;  // f(zeta) from the step equation
+  }
+  return s * zeta;
+}
+
+}  // namespace
+
+double DeflectionRate(const LawParameters& p, const LawInput& in, double z) {
+  const double v = in.velocity;
+  if (v == 0) return 0.0;
+  const double s = Sign(v);
+  switch (p.law) {
+    case Law::kDahl: {
+      const double z_c = StribeckLevel(p, in) / p.contact_stiffness;
+      if (z_c <= 0) return 0.0;
+      const double w = 1.0 - s * z / z_c;
+      // alpha = 1 (the usual value) without pow: the same result, cheaper
+      const double base = p.alpha == 1.0 ? std::fabs(w) : std::pow(std::fabs(w), p.alpha);
+      return v * Sign(w) * base;
+    }
+    case Law::kLuGre: {
+      const double z_g = StribeckLevel(p, in) / p.contact_stiffness;
+      if (z_g <= 0) return 0.0;
+      return v - std::fabs(v) * z / z_g;
+    }
+    case Law::kDupont: {
+      const double z_max = StribeckLevel(p, in) / p.contact_stiffness;
+      if (z_max <= 0) return 0.0;
+      const double z_ba = p.breakaway_ratio * CoulombLevel(p, in, s) / p.contact_stiffness;
+      const double zeta = s * z;
+      return v * (1.0 - DupontShape(zeta, z_ba, z_max) * zeta / z_max);
+    }
+    case Law::kCoulomb:
+    case Law::kGms:  // (its own state: AdvanceGms)
+      return 0.0;
+  }
+  return 0.0;
+}
+
+double AdvanceDeflection(const LawParameters& p, const LawInput& in, double z, double dt) {
+  const double v = in.velocity;
+  if (!HasDeflection(p.law)) return 0.0;
+  if (v == 0 || dt <= 0) return z;
+  const double s = Sign(v);
+  switch (p.law) {
+    case Law::kDahl: {
+      const double z_c = StribeckLevel(p, in) / p.contact_stiffness;
+      if (z_c <= 0) return 0.0;  // no normal load: no friction, no deflection
+      if (p.alpha == 1.0) {
+        // |w| decays as exp(-|v| t / z_c): z relaxes exponentially to s z_c (as LuGre).
+        const double z_ss = s * z_c;
+        return z_ss + (z - z_ss) * std::exp(-std::fabs(v) * dt / z_c);
+      }
+      const double w0 = 1.0 - s * z / z_c;
+      const double w1 = Sign(w0) * DecayDahlBase(std::fabs(w0), p.alpha, std::fabs(v) * dt / z_c);
+      return s * z_c * (1.0 - w1);
+    }
+    case Law::kLuGre: {
+      const double z_g = StribeckLevel(p, in) / p.contact_stiffness;
+      if (z_g <= 0) return 0.0;
+      const double z_ss = s * z_g;
+      return z_ss + (z - z_ss) * std::exp(-std::fabs(v) * dt / z_g);
+    }
+    case Law::kDupont:
+      return AdvanceDupont(p, in, z, dt);
+    case Law::kCoulomb:
+    case Law::kGms:  // (its own state: AdvanceGms)
+      return 0.0;
+  }
+  return z;
+}
+
+double StateForce(const LawParameters& p, const LawInput& in, double z) {
+  const double undamped = UndampedStateForce(p, in.velocity, z);
+  return p.bristle_damping != 0 ? undamped + p.bristle_damping * DeflectionRate(p, in, z)
+                                : undamped;
+}
+
+namespace {
+
+// sigma1 slope(z) + sigma2 for motion in `direction` at `speed`: the laws are homogeneous in v
+// for a direction, dz/dt = slope v. 0 or less when z lies beyond its steady value.
+double DampingCoefficient(const LawParameters& p, const LawInput& in, double z, double direction,
+                          double speed) {
+  LawInput probe = in;
+  probe.velocity = direction * speed;
+  return p.bristle_damping * DeflectionRate(p, probe, z) / probe.velocity + p.viscous;
+}
+
+}  // namespace
+
+double ImplicitStateForce(const LawParameters& p, const LawInput& in, double z,
+                          double velocity_free, double dt_inverse_mass) {
+  const double elastic = p.contact_stiffness * z + p.force_offset;
+  const double v_trial = velocity_free - dt_inverse_mass * elastic;  // damping off
+  const double speed = std::max(std::fabs(in.velocity), std::fabs(v_trial));
+  const double direction = v_trial != 0 ? Sign(v_trial) : Sign(in.velocity);
+  if (speed == 0) return elastic;
+  const double damping = DampingCoefficient(p, in, z, direction, speed);
+  if (damping <= 0) return StateForce(p, in, z);
+  // F = elastic + damping (v + v_next)/2 with v_next = velocity_free - dt_inverse_mass F.
+  return (elastic + 0.5 * damping * (in.velocity + velocity_free)) /
+         (1.0 + 0.5 * damping * dt_inverse_mass);
+}
+
+double StickSlipForce(const LawParameters& p, const LawInput& in, double stick_force) {
+  const double needed = stick_force - p.force_offset;
+  const double direction = Sign(needed);
+  LawInput at_rest = in;
+  at_rest.velocity = 0.0;
+  const double static_level = CoulombLevel(p, at_rest, direction) * VelocityShape(p, 0.0);
+  if (std::fabs(needed) <= static_level) return stick_force;
+  // Kinetic level in the direction of sliding, with the Stribeck curve at the current speed.
+  const double kinetic = CoulombLevel(p, in, direction) * VelocityShape(p, in.velocity);
+  return direction * kinetic + p.viscous * in.velocity + p.force_offset;
+}
+
+double KinematicCoulombForce(const LawParameters& p, const LawInput& in) {
+  return Sign(in.velocity) * StribeckLevel(p, in) + p.viscous * in.velocity + p.force_offset;
+}
+
+// ---- Vector (isotropic) laws ---------------------------------------------------------------------
+// One implementation for every dimension: the planar element uses N = 2, the contact element
+// N = 4 (the tangential velocity in world coordinates and the spin times the torsion radius).
+
+namespace {
+
+template <int N>
+double Norm(const double v[N]) {
+  double sum = 0.0;
+  for (int i = 0; i < N; ++i) sum += v[i] * v[i];
+  return std::sqrt(sum);
+}
+
+template <int N>
+double Dot(const double a[N], const double b[N]) {
+  double sum = 0.0;
+  for (int i = 0; i < N; ++i) sum += a[i] * b[i];
+  return sum;
+}
+
+template <>
+double Norm<2>(const double v[2]) { return std::hypot(v[0], v[1]); }
+
+// Unit direction of v and its speed; returns false (and leaves dir untouched) when v = 0.
+template <int N>
+bool Direction(const double v[N], double dir[N], double* speed) {
+  *speed = Norm<N>(v);
+  if (!(*speed > 0)) return false;
+  for (int i = 0; i < N; ++i) dir[i] = v[i] / *speed;
+  return true;
+}
+
+LawInput AtSpeed(const LawInput& in, double speed) {
+  LawInput at = in;
+  at.velocity = speed;
+  return at;
+}
+
+// Dupont plastic onset: a > 0 needs z.v > 0 and |z| > z_ba. During elastic motion z = z0 + v t
+// the perpendicular part q stays fixed and the projection p grows at |v|; the onset projection
+// is sqrt(z_ba^2 - q^2) (or 0+ when q >= z_ba).
+template <int N>
+void AdvanceVectorDupont(const LawParameters& p, const LawInput& at, const double dir[N],
+                         double speed, double z[N], double dt) {
+  const double z_max = StribeckLevel(p, at) / p.contact_stiffness;
+  const double z_ba = p.breakaway_ratio * CoulombLevel(p, at, 1.0) / p.contact_stiffness;
+  if (z_max <= 0) {
+    for (int i = 0; i < N; ++i) z[i] = 0.0;
+    return;
+  }
+  double time_left = dt;
+  const double proj = Dot<N>(z, dir);
+  double perp[N];
+  for (int i = 0; i < N; ++i) perp[i] = z[i] - proj * dir[i];
+  const double q = Norm<N>(perp);
+  const double onset = q < z_ba ? std::sqrt(z_ba * z_ba - q * q) : 0.0;
+  if (proj < onset || (onset == 0.0 && proj <= 0.0)) {
+    const double t_elastic = (onset - proj) / speed;
+    if (t_elastic >= time_left) {
+      for (int i = 0; i < N; ++i) z[i] += dir[i] * speed * time_left;
+      return;
+    }
+    for (int i = 0; i < N; ++i) z[i] = perp[i] + onset * dir[i];
+    time_left -= t_elastic;
+  }
+  const double r = Norm<N>(z);
+  if (r >= z_max) {
+    // a = 1: linear, exact exponential relaxation towards z_max dir.
+    const double decay = std::exp(-speed * time_left / z_max);
+    for (int i = 0; i < N; ++i) z[i] = z_max * dir[i] + (z[i] - z_max * dir[i]) * decay;
+    return;
+  }
+  // Trapezoidal, as the 1D law: z1 = z0 + h (F(z0) + F(z1)) / 2 with F(z) = dir - a(|z|) z / z_max
+  // gives z1 (1 + h a(|z1|) / (2 z_max)) = y = z0 + h dir - h a(|z0|) z0 / (2 z_max): z1 keeps
+  // the direction of y, and |z1| solves the 1D step equation with base |y| - h/2, c = h/2.
+  const DupontPlastic plastic(z_ba, z_max);
+  const double travel = speed * time_left;
+  const int substeps = std::clamp(
+      static_cast<int>(std::ceil(kDupontSubstepsPerTransition * travel / (z_max - z_ba))), 1, 64);
+  const double h = travel / substeps;
+  // As the 1D law: trapezoidal while h <= z_max, else backward Euler (y = z0 + h dir, base
+  // |y| - h, c = h). A trapezoid with h > 2 z_max would flip the deflection across the motion.
+  const bool trapezoidal = h <= z_max;
+  const double c = trapezoidal ? 0.5 * h : h;
+  for (int k = 0; k < substeps; ++k) {
+    double slope;
+    const double shrink = trapezoidal ? c * plastic.Shape(Norm<N>(z), &slope) / z_max : 0.0;
+    double y[N];
+    for (int i = 0; i < N; ++i) y[i] = z[i] * (1.0 - shrink) + h * dir[i];
+    const double y_norm = Norm<N>(y);
+    if (!(y_norm > 0)) {
+      for (int i = 0; i < N; ++i) z[i] = 0.0;
+      continue;
+    }
+    // f <= 1 bounds the rate; the guess is the explicit end point of the bracket.
+    const double radius = plastic.Solve(y_norm - c, c, 1.0, y_norm);
+    for (int i = 0; i < N; ++i) z[i] = y[i] * (radius / y_norm);
+  }
+}
+
+}  // namespace
+
+template <int N>
+void VectorDeflectionRate(const LawParameters& p, const LawInput& in, const double v[N],
+                          const double z[N], double rate[N]) {
+  for (int i = 0; i < N; ++i) rate[i] = 0.0;
+  double dir[N], speed;
+  if (!Direction<N>(v, dir, &speed)) return;
+  const LawInput at = AtSpeed(in, speed);
+  switch (p.law) {
+    case Law::kDahl: {
+      const double z_c = StribeckLevel(p, at) / p.contact_stiffness;
+      if (z_c <= 0) return;
+      double e[N];
+      for (int i = 0; i < N; ++i) e[i] = dir[i] - z[i] / z_c;
+      const double e_norm = Norm<N>(e);
+      if (!(e_norm > 0)) return;
+      const double gain = speed * std::pow(e_norm, p.alpha - 1.0);
+      for (int i = 0; i < N; ++i) rate[i] = gain * e[i];
+      return;
+    }
+    case Law::kLuGre: {
+      const double z_g = StribeckLevel(p, at) / p.contact_stiffness;
+      if (z_g <= 0) return;
+      for (int i = 0; i < N; ++i) rate[i] = v[i] - speed * z[i] / z_g;
+      return;
+    }
+    case Law::kDupont: {
+      const double z_max = StribeckLevel(p, at) / p.contact_stiffness;
+      if (z_max <= 0) return;
+      const double z_ba = p.breakaway_ratio * CoulombLevel(p, at, 1.0) / p.contact_stiffness;
+      const bool loading = Dot<N>(z, v) > 0;
+      const double a = loading ? DupontShape(Norm<N>(z), z_ba, z_max) : 0.0;
+      for (int i = 0; i < N; ++i) rate[i] = v[i] - a * speed * z[i] / z_max;
+      return;
+    }
+    case Law::kCoulomb:
+    case Law::kGms:  // (its own state: AdvanceGms)
+      return;
+  }
+}
+
+template <int N>
+void AdvanceVectorDeflection(const LawParameters& p, const LawInput& in, const double v[N],
+                             double z[N], double dt) {
+  if (!HasDeflection(p.law)) {
+    for (int i = 0; i < N; ++i) z[i] = 0.0;
+    return;
+  }
+  double dir[N], speed;
+  if (dt <= 0 || !Direction<N>(v, dir, &speed)) return;
+  const LawInput at = AtSpeed(in, speed);
+  switch (p.law) {
+    case Law::kDahl: {
+      const double z_c = StribeckLevel(p, at) / p.contact_stiffness;
+      if (z_c <= 0) {
+        for (int i = 0; i < N; ++i) z[i] = 0.0;
+        return;
+      }
+      // e = dir - z/z_c keeps its direction; |e| follows the 1D base decay.
+      double e[N];
+      for (int i = 0; i < N; ++i) e[i] = dir[i] - z[i] / z_c;
+      const double e_norm = Norm<N>(e);
+      const double scale =
+          e_norm > 0 ? DecayDahlBase(e_norm, p.alpha, speed * dt / z_c) / e_norm : 0.0;
+      for (int i = 0; i < N; ++i) z[i] = z_c * (dir[i] - e[i] * scale);
+      return;
+    }
+    case Law::kLuGre: {
+      const double z_g = StribeckLevel(p, at) / p.contact_stiffness;
+      if (z_g <= 0) {
+        for (int i = 0; i < N; ++i) z[i] = 0.0;
+        return;
+      }
+      const double decay = std::exp(-speed * dt / z_g);
+      for (int i = 0; i < N; ++i) z[i] = dir[i] * z_g + (z[i] - dir[i] * z_g) * decay;
+      return;
+    }
+    case Law::kDupont:
+      AdvanceVectorDupont<N>(p, at, dir, speed, z, dt);
+      return;
+    case Law::kCoulomb:
+    case Law::kGms:  // (its own state: AdvanceGms)
+      return;
+  }
+}
+
+template <int N>
+void VectorStateForce(const LawParameters& p, const LawInput& in, const double v[N],
+                      const double z[N], double force[N]) {
+  double rate[N];
+  VectorDeflectionRate<N>(p, in, v, z, rate);
+  for (int i = 0; i < N; ++i) {
+    force[i] = p.contact_stiffness * z[i] + p.bristle_damping * rate[i] + p.viscous * v[i];
+  }
+}
+
+template void VectorDeflectionRate<4>(const LawParameters&, const LawInput&, const double*,
+                                      const double*, double*);
+template void AdvanceVectorDeflection<4>(const LawParameters&, const LawInput&, const double*,
+                                         double*, double);
+template void VectorStateForce<4>(const LawParameters&, const LawInput&, const double*,
+                                  const double*, double*);
+
+void PlanarDeflectionRate(const LawParameters& p, const LawInput& in, const double v[2],
+                          const double z[2], double rate[2]) {
+  VectorDeflectionRate<2>(p, in, v, z, rate);
+}
+
+void AdvancePlanarDeflection(const LawParameters& p, const LawInput& in, const double v[2],
+                             double z[2], double dt) {
+  AdvanceVectorDeflection<2>(p, in, v, z, dt);
+}
+
+void PlanarStateForce(const LawParameters& p, const LawInput& in, const double v[2],
+                      const double z[2], double force[2]) {
+  VectorStateForce<2>(p, in, v, z, force);
+}
+
+void PlanarImplicitStateForce(const LawParameters& p, const LawInput& in, const double v[2],
+                              const double z[2], const double v_free[2], const double B[4],
+                              double force[2]) {
+  const double elastic[2] = {p.contact_stiffness * z[0], p.contact_stiffness * z[1]};
+  const double v_trial[2] = {v_free[0] - B[0] * elastic[0] - B[1] * elastic[1],
+                             v_free[1] - B[2] * elastic[0] - B[3] * elastic[1]};
+  double dir[2], trial_speed, speed;
+  const bool moving = Direction<2>(v_trial, dir, &trial_speed);
+  speed = std::max(std::hypot(v[0], v[1]), trial_speed);
+  if (!moving && !Direction<2>(v, dir, &speed)) {
+    force[0] = elastic[0];
+    force[1] = elastic[1];
+    return;
+  }
+  // Damping matrix D: along the direction of motion the secant sigma1 dz/dt / speed (the laws
+  // are homogeneous in v for a direction) + sigma2; across it the bristles follow the motion
+  // (dz/dt = v), D = sigma1 + sigma2. Motion on one axis reduces to ImplicitStateForce.
+  const double probe[2] = {speed * dir[0], speed * dir[1]};
+  double rate[2];
+  PlanarDeflectionRate(p, AtSpeed(in, speed), probe, z, rate);
+  const double along[2] = {p.bristle_damping * rate[0] / speed + p.viscous * dir[0],
+                           p.bristle_damping * rate[1] / speed + p.viscous * dir[1]};
+  if (along[0] * dir[0] + along[1] * dir[1] <= 0) {
+    PlanarStateForce(p, in, v, z, force);
+    return;
+  }
+  const double across = p.bristle_damping + p.viscous;
+  const double perp[2] = {-dir[1], dir[0]};
+  double D[4];
+  for (int i = 0; i < 2; ++i) {
+    for (int j = 0; j < 2; ++j) D[2 * i + j] = along[i] * dir[j] + across * perp[i] * perp[j];
+  }
+  // Trapezoidal: F = elastic + D (v + v_next)/2, v_next = v_free - B F
+  //   => (I + D B / 2) F = elastic + D (v + v_free) / 2.
+  const double mean[2] = {v[0] + v_free[0], v[1] + v_free[1]};
+  const double rhs[2] = {elastic[0] + 0.5 * (D[0] * mean[0] + D[1] * mean[1]),
+                         elastic[1] + 0.5 * (D[2] * mean[0] + D[3] * mean[1])};
+  const double A[4] = {1 + 0.5 * (D[0] * B[0] + D[1] * B[2]), 0.5 * (D[0] * B[1] + D[1] * B[3]),
+                       0.5 * (D[2] * B[0] + D[3] * B[2]), 1 + 0.5 * (D[2] * B[1] + D[3] * B[3])};
+  const double det = A[0] * A[3] - A[1] * A[2];
+  force[0] = (A[3] * rhs[0] - A[1] * rhs[1]) / det;
+  force[1] = (A[0] * rhs[1] - A[2] * rhs[0]) / det;
+}
+
+namespace {
+
+template <int N>
+double Determinant(const double B[N * N]);
+template <>
+double Determinant<2>(const double B[4]) { return B[0] * B[3] - B[1] * B[2]; }
+template <>
+double Determinant<3>(const double B[9]) {
+  return B[0] * (B[4] * B[8] - B[5] * B[7]) - B[1] * (B[3] * B[8] - B[5] * B[6]) +
+         B[2] * (B[3] * B[7] - B[4] * B[6]);
+}
+
+// x = B^+ b for a symmetric positive semi-definite B (N x N): its eigenvectors by Jacobi
+// rotations, the eigenvalues below `tiny` dropped (directions without response take no force).
+template <int N>
+void PseudoInverseSolve(const double B[N * N], const double b[N], double tiny, double x[N]) {
+  double a[N][N], q[N][N];
+  for (int i = 0; i < N; ++i) {
+    for (int j = 0; j < N; ++j) {
+      a[i][j] = 0.5 * (B[N * i + j] + B[N * j + i]);
+      q[i][j] = i == j;
+    }
+  }
+  for (int sweep = 0; sweep < 50; ++sweep) {
+    double off = 0.0, total = 0.0;
+    for (int i = 0; i < N; ++i) {
+      for (int j = 0; j < N; ++j) (i == j ? total : off) += a[i][j] * a[i][j];
+    }
+    if (off <= 1e-30 * (total + off)) break;
+    for (int i = 0; i < N; ++i) {
+      for (int j = i + 1; j < N; ++j) {
+        if (a[i][j] == 0) continue;
+        const double theta = 0.5 * std::atan2(2 * a[i][j], a[j][j] - a[i][i]);
+        const double c = std::cos(theta), s = std::sin(theta);
+        for (int k = 0; k < N; ++k) {  // A <- A R, then A <- R' A, Q <- Q R
+          const double ki = a[k][i], kj = a[k][j];
+          a[k][i] = c * ki - s * kj;
+          a[k][j] = s * ki + c * kj;
+        }
+        for (int k = 0; k < N; ++k) {
+          const double ik = a[i][k], jk = a[j][k];
+          a[i][k] = c * ik - s * jk;
+          a[j][k] = s * ik + c * jk;
+        }
+        for (int k = 0; k < N; ++k) {
+          const double ki = q[k][i], kj = q[k][j];
+          q[k][i] = c * ki - s * kj;
+          q[k][j] = s * ki + c * kj;
+        }
+      }
+    }
+  }
+  for (int i = 0; i < N; ++i) x[i] = 0.0;
+  for (int k = 0; k < N; ++k) {
+    if (!(a[k][k] > tiny)) continue;
+    double projection = 0.0;
+    for (int i = 0; i < N; ++i) projection += q[i][k] * b[i];
+    for (int i = 0; i < N; ++i) x[i] += q[i][k] * projection / a[k][k];
+  }
+}
+
+}  // namespace
+
+template <int N>
+void VectorStickSlipForce(const LawParameters& p, const LawInput& in, const double v[N],
+                          const double v_free[N], const double B[N * N], double force[N]) {
+  // Force that brings the end-of-step velocity to zero: B F = v_free.
+  double stick[N];
+  double trace = 0.0;
+  bool diagonal = true;
+  for (int i = 0; i < N; ++i) {
+    trace += B[N * i + i];
+    for (int j = 0; j < N; ++j) diagonal = diagonal && (i == j || B[N * i + j] == 0);
+  }
+  // A direction whose response is below 1e-12 of the trace has none: no force can move it.
+  double scale = 1.0;  // trace^N: det > 1e-12 trace^N is invertible to working precision
+  for (int i = 0; i < N; ++i) scale *= trace;
+  const bool invertible = Determinant<N>(B) > 1e-12 * scale;
+  if (diagonal) {  // decoupled axes (as the 1D element divides)
+    for (int i = 0; i < N; ++i) {
+      stick[i] = B[N * i + i] > 1e-12 * trace ? v_free[i] / B[N * i + i] : 0.0;
+    }
+  } else if (!invertible || !SolveLinear<N>(B, v_free, 0.0, stick)) {
+    // coupled and singular (a body that moves along one combination of the axes only)
+    PseudoInverseSolve<N>(B, v_free, 1e-12 * trace, stick);
+  }
+  const double stick_norm = Norm<N>(stick);
+  LawInput at_rest = in;
+  at_rest.velocity = 0.0;
+  const double static_level = p.static_ratio * CoulombLevel(p, at_rest, 1.0);
+  if (stick_norm <= static_level) {
+    for (int i = 0; i < N; ++i) force[i] = stick[i];
+    return;
+  }
+  const double speed = Norm<N>(v);
+  double kinetic = CoulombLevel(p, in, 1.0);
+  if (p.static_ratio != 1.0) {
+    const double ratio = speed / p.stribeck_velocity;
+    kinetic *= 1.0 + (p.static_ratio - 1.0) * std::exp(-ratio * ratio);
+  }
+  // Sliding: u + kinetic B u/|u| = v_free. With lambda = kinetic/|u|, u = (I + lambda B)^-1
+  // v_free and lambda |u(lambda)| = kinetic, increasing in lambda from 0 to |stick| > kinetic.
+  auto end_velocity = [&](double lambda, double u[N]) {
+    double A[N * N];
+    for (int i = 0; i < N; ++i) {
+      for (int j = 0; j < N; ++j) A[N * i + j] = (i == j) + lambda * B[N * i + j];
+    }
+    // I + lambda B with B positive semi-definite: invertible
+    if (!SolveLinear<N>(A, v_free, 0.0, u)) {
+      for (int i = 0; i < N; ++i) u[i] = v_free[i];
+    }
+  };
+  double dir[N];
+  for (int i = 0; i < N; ++i) dir[i] = stick[i] / stick_norm;
+  int moving_axes = 0;
+  for (int i = 0; i < N; ++i) moving_axes += v_free[i] != 0;
+  const bool one_axis = moving_axes <= 1 && diagonal;
+  if (!one_axis && !(diagonal && !invertible) && kinetic > 0) {  // I + lambda B: invertible
+    const double b_mean = std::max(trace / N, 1e-300);
+    double lo = 0.0, hi = kinetic / (b_mean * std::max(stick_norm - kinetic, 1e-300 * stick_norm));
+    double u[N];
+    for (int k = 0; k < 200; ++k) {  // bracket the root
+      end_velocity(hi, u);
+      if (hi * Norm<N>(u) >= kinetic) break;
+      lo = hi;
+      hi *= 2;
+    }
+    for (int k = 0; k < 100 && hi - lo > 1e-15 * hi; ++k) {
+      const double mid = 0.5 * (lo + hi);
+      end_velocity(mid, u);
+      if (mid * Norm<N>(u) >= kinetic) hi = mid; else lo = mid;
+    }
+    end_velocity(hi, u);
+    const double u_norm = Norm<N>(u);
+    if (u_norm > 0) {
+      for (int i = 0; i < N; ++i) dir[i] = u[i] / u_norm;
+    }
+  }
+  for (int i = 0; i < N; ++i) force[i] = kinetic * dir[i] + p.viscous * v[i];
+}
+
+template void VectorStickSlipForce<2>(const LawParameters&, const LawInput&, const double*,
+                                      const double*, const double*, double*);
+template void VectorStickSlipForce<3>(const LawParameters&, const LawInput&, const double*,
+                                      const double*, const double*, double*);
+
+void PlanarStickSlipForce(const LawParameters& p, const LawInput& in, const double v[2],
+                          const double v_free[2], const double B[4], double force[2]) {
+  VectorStickSlipForce<2>(p, in, v, v_free, B, force);
+}
+
+void PlanarKinematicCoulombForce(const LawParameters& p, const LawInput& in, const double v[2],
+                                 double force[2]) {
+  double dir[2] = {0.0, 0.0}, speed = 0.0;
+  Direction<2>(v, dir, &speed);
+  const double level = speed > 0 ? StribeckLevel(p, AtSpeed(in, speed)) : 0.0;
+  force[0] = level * dir[0] + p.viscous * v[0];
+  force[1] = level * dir[1] + p.viscous * v[1];
+}
+
+// ---- Lists: gms elements, level maps --------------------------------------------------------
+
+ListCheck MakeGmsElements(const double* stiffness, const double* weight, int count,
+                          double relaxation_time, GmsElements* out) {
+  if (count < 1 || count > kMaxGmsElements) return {ListProblem::kCount, double(count)};
+  GmsElements g;
+  g.count = count;
+  double total = 0.0;
+  for (int i = 0; i < count; ++i) {
+    const double w = weight ? weight[i] : 1.0 / count;
+    if (!std::isfinite(stiffness[i]) || !std::isfinite(w)) {
+      return {ListProblem::kNotFinite, std::isfinite(w) ? stiffness[i] : w};
+    }
+    if (!(stiffness[i] > 0)) return {ListProblem::kStiffness, stiffness[i]};
+    if (!(w > 0)) return {ListProblem::kWeight, w};
+    g.stiffness[i] = stiffness[i];
+    g.weight[i] = w;
+    total += w;
+  }
+  if (std::fabs(total - 1.0) > 1e-6) return {ListProblem::kWeightSum, total};
+  for (int i = 0; i < count; ++i) g.weight[i] /= total;  // exactly 1 in all
+  if (!(relaxation_time >= 0) || !std::isfinite(relaxation_time)) {
+    return {ListProblem::kRelaxation, relaxation_time};
+  }
+  g.relaxation_time = relaxation_time;
+  *out = g;
+  return {};
+}
+
+ListCheck MakeLevelMap(const double* knots, const double* factors, int count, double period,
+                       bool nonnegative_knots, LevelMap* out) {
+  if (count < 0 || count > kMaxMapKnots) return {ListProblem::kCount, double(count)};
+  if (!(period >= 0) || !std::isfinite(period)) return {ListProblem::kPeriod, period};
+  LevelMap map = *out;
+  map.count = count;
+  map.period = period;
+  for (int i = 0; i < count; ++i) {
+    if (!std::isfinite(knots[i]) || !std::isfinite(factors[i])) {
+      return {ListProblem::kNotFinite, std::isfinite(knots[i]) ? factors[i] : knots[i]};
+    }
+    if (!(factors[i] > -1)) return {ListProblem::kFactor, factors[i]};
+    if (nonnegative_knots && knots[i] < 0) return {ListProblem::kNegativeKnot, knots[i]};
+    map.knot[i] = knots[i];
+    map.factor[i] = factors[i];
+  }
+  if (!map.SetUp()) return {ListProblem::kOrder, 0.0};
+  *out = map;
+  return {};
+}
+
+// ---- Level maps ------------------------------------------------------------------------------
+
+bool LevelMap::SetUp() {
+  const int n = count;
+  for (int i = 0; i < kMaxMapKnots; ++i) curvature[i] = 0.0;
+  if (n < 1 || n > kMaxMapKnots) return n == 0;
+  for (int i = 1; i < n; ++i) {
+    if (!(knot[i] > knot[i - 1])) return false;
+  }
+  if (period > 0 && !(knot[n - 1] < knot[0] + period)) return false;
+  if (n < 3 && period <= 0) return true;  // a constant or a line: no curvature
+  if (n < 2) return true;
+  // Continuity of the slope at each interior knot (every knot, periodic): a linear system in
+  // the curvatures, at most 16 unknowns, solved once when the config is read.
+  double A[kMaxMapKnots * kMaxMapKnots] = {}, b[kMaxMapKnots] = {}, m[kMaxMapKnots] = {};
+  auto x = [&](int i) { return i < n ? knot[i] : knot[i - n] + period; };
+  auto y = [&](int i) { return factor[i % n]; };
+  if (period > 0) {
+    for (int i = 0; i < n; ++i) {
+      const int prev = (i + n - 1) % n, next = (i + 1) % n;
+      const double h0 = i == 0 ? knot[0] + period - knot[n - 1] : knot[i] - knot[i - 1];
+      const double h1 = x(i + 1) - knot[i];
+      A[n * i + prev] += h0 / 6;
+      A[n * i + i] += (h0 + h1) / 3;
+      A[n * i + next] += h1 / 6;
+      b[i] = (y(i + 1) - factor[i]) / h1 - (factor[i] - factor[prev]) / h0;
+    }
+  } else {
+    A[0] = 1.0;
+    A[n * (n - 1) + n - 1] = 1.0;  // natural ends: zero curvature
+    for (int i = 1; i + 1 < n; ++i) {
+      const double h0 = knot[i] - knot[i - 1], h1 = knot[i + 1] - knot[i];
+      A[n * i + i - 1] = h0 / 6;
+      A[n * i + i] = (h0 + h1) / 3;
+      A[n * i + i + 1] = h1 / 6;
+      b[i] = (factor[i + 1] - factor[i]) / h1 - (factor[i] - factor[i - 1]) / h0;
+    }
+  }
+  // (Gaussian elimination with partial pivoting, n <= 16)
+  for (int col = 0; col < n; ++col) {
+    int pivot = col;
+    for (int r = col + 1; r < n; ++r) {
+      if (std::fabs(A[n * r + col]) > std::fabs(A[n * pivot + col])) pivot = r;
+    }
+    if (!(std::fabs(A[n * pivot + col]) > 0)) return false;
+    if (pivot != col) {
+      for (int j = 0; j < n; ++j) std::swap(A[n * pivot + j], A[n * col + j]);
+      std::swap(b[pivot], b[col]);
+    }
+    for (int r = col + 1; r < n; ++r) {
+      const double f = A[n * r + col] / A[n * col + col];
+      for (int j = col; j < n; ++j) A[n * r + j] -= f * A[n * col + j];
+      b[r] -= f * b[col];
+    }
+  }
+  for (int i = n - 1; i >= 0; --i) {
+    double sum = b[i];
+    for (int j = i + 1; j < n; ++j) sum -= A[n * i + j] * m[j];
+    m[i] = sum / A[n * i + i];
+  }
+  for (int i = 0; i < n; ++i) curvature[i] = m[i];
+  return true;
+}
+
+double LevelMap::Value(double at) const {
+  const int n = count;
+  if (n == 0) return 0.0;
+  if (n == 1) return factor[0];
+  double xq = at;
+  int i;  // interval [x_i, x_i+1]; periodic: i = n - 1 wraps to knot 0 + period
+  if (period > 0) {
+    xq = knot[0] + std::fmod(at - knot[0], period);
+    if (xq < knot[0]) xq += period;
+    i = static_cast<int>(std::upper_bound(knot, knot + n, xq) - knot) - 1;
+  } else {
+    if (xq <= knot[0] || xq >= knot[n - 1]) {
+      const bool low = xq <= knot[0];
+      const int end = low ? 0 : n - 1;
+      if (constant_ends) return factor[end];
+      // the natural spline's end slope (its end curvature is 0), continued linearly
+      const int a = low ? 0 : n - 2;  // the end interval [knot a, knot a + 1]
+      const double h = knot[a + 1] - knot[a];
+      const double chord = (factor[a + 1] - factor[a]) / h;
+      const double slope = low ? chord - h * curvature[1] / 6 : chord + h * curvature[n - 2] / 6;
+      return factor[end] + slope * (xq - knot[end]);
+    }
+    i = static_cast<int>(std::upper_bound(knot, knot + n, xq) - knot) - 1;
+  }
+  const int j = (i + 1) % n;
+  const double x1 = i + 1 < n ? knot[i + 1] : knot[0] + period;
+  const double h = x1 - knot[i];
+  const double a = (x1 - xq) / h, b = (xq - knot[i]) / h;
+  return a * factor[i] + b * factor[j] +
+         ((a * a * a - a) * curvature[i] + (b * b * b - b) * curvature[j]) * h * h / 6;
+}
+
+// ---- Generalized Maxwell-slip ----------------------------------------------------------------
+
+namespace {
+
+// Time t in [0, dt] at which |z + v t| reaches `limit` (|z| < limit, v != 0): the positive root
+// of |v|^2 t^2 + 2 (z.v) t + |z|^2 - limit^2 = 0, written without cancellation.
+template <int D>
+double CrossingTime(const double* z, const double v[D], double limit) {
+  const double a = Dot<D>(v, v);
+  const double b = Dot<D>(z, v);
+  const double c = Dot<D>(z, z) - limit * limit;
+  const double root = std::sqrt(std::max(b * b - a * c, 0.0));
+  return b >= 0 ? -c / (b + root) : (root - b) / a;
+}
+
+}  // namespace
+
+template <int D>
+void AdvanceGms(const LawParameters& p, const LawInput& in, const double v[D], double* z,
+                double* slipping, double dt) {
+  if (dt <= 0) return;
+  double speed = 0.0;
+  for (int j = 0; j < D; ++j) speed += v[j] * v[j];
+  speed = std::sqrt(speed);
+  // The level on either side: in 1D the direction asymmetry gives each side its own, and an
+  // element is limited on the side its deflection lies (so a reversal unloads it elastically
+  // across to the other side's level); in the plane the level is isotropic.
+  double level_positive, level_negative;
+  if (D == 1) {
+    LawInput at = in;
+    at.velocity = v[0];
+    const double shape = VelocityShape(p, v[0]);
+    level_positive = CoulombLevel(p, at, 1.0) * shape;
+    level_negative = CoulombLevel(p, at, -1.0) * shape;
+  } else {
+    level_positive = level_negative = StribeckLevel(p, AtSpeed(in, speed));
+  }
+  for (int i = 0; i < p.gms.count; ++i) {
+    double* zi = z + D * i;
+    const double share = p.gms.weight[i] / p.gms.stiffness[i];
+    // the slip deflection on the side of `side` (1D: its sign; the plane: any)
+    auto limit_on = [&](double side) {
+      return std::max(share * (side < 0 ? level_negative : level_positive), 0.0);
+    };
+    if (slipping[i] != 0 && !(Dot<D>(v, zi) > 0)) slipping[i] = 0;  // reversed or stopped
+    double remaining = dt;
+    double limit = limit_on(v[0]);  // a slipping element's side: that of the motion
+    if (slipping[i] == 0) {
+      double trial[D];
+      for (int j = 0; j < D; ++j) trial[j] = zi[j] + v[j] * dt;
+      const double trial_norm = std::sqrt(Dot<D>(trial, trial));
+      const double trial_limit = limit_on(trial[0]);
+      if (trial_norm <= trial_limit) {  // sticks the whole step
+        for (int j = 0; j < D; ++j) zi[j] = trial[j];
+        continue;
+      }
+      if (!(Dot<D>(v, trial) > 0)) {
+        // Unloading, yet beyond a level that fell (Stribeck, load): back to the level.
+        for (int j = 0; j < D; ++j) zi[j] = trial_limit * trial[j] / trial_norm;
+        continue;
+      }
+      // Loading through the level (on the side of the motion): stick until the crossing,
+      // slip for the rest of the step.
+      const double t_cross =
+          Dot<D>(zi, zi) < limit * limit ? std::min(CrossingTime<D>(zi, v, limit), dt) : 0.0;
+      for (int j = 0; j < D; ++j) zi[j] += v[j] * t_cross;
+      remaining = dt - t_cross;
+      slipping[i] = 1;
+    }
+    // Slipping: the magnitude relaxes to the level, along the elastic trial direction.
+    double trial[D];
+    for (int j = 0; j < D; ++j) trial[j] = zi[j] + v[j] * remaining;
+    const double trial_norm = std::sqrt(Dot<D>(trial, trial));
+    if (!(trial_norm > 0)) continue;
+    const double magnitude = std::sqrt(Dot<D>(zi, zi));
+    const double relaxed =
+        p.gms.relaxation_time > 0
+            ? limit + (magnitude - limit) * std::exp(-remaining / p.gms.relaxation_time)
+            : limit;
+    for (int j = 0; j < D; ++j) zi[j] = relaxed * trial[j] / trial_norm;
+  }
+}
+
+template <int D>
+void GmsElementForce(const LawParameters& p, const double* z, double force[D]) {
+  for (int j = 0; j < D; ++j) force[j] = 0.0;
+  for (int i = 0; i < p.gms.count; ++i) {
+    for (int j = 0; j < D; ++j) force[j] += p.gms.stiffness[i] * z[D * i + j];
+  }
+}
+
+template <int D>
+void GmsEquivalentDeflection(const LawParameters& p, const double* z, double deflection[D]) {
+  double stiffness = 0.0;
+  for (int i = 0; i < p.gms.count; ++i) stiffness += p.gms.stiffness[i];
+  GmsElementForce<D>(p, z, deflection);
+  for (int j = 0; j < D; ++j) deflection[j] /= stiffness;
+}
+
+template <int D>
+void GmsImplicitForce(const LawParameters& p, const double* z, const double v[D],
+                      const double v_free[D], const double B[D * D], double force[D]) {
+  double rhs[D];
+  GmsElementForce<D>(p, z, rhs);
+  if (D == 1) rhs[0] += p.force_offset;
+  if (p.viscous == 0) {
+    for (int j = 0; j < D; ++j) force[j] = rhs[j];
+    return;
+  }
+  // F = E + sigma2 (v + v_free - B F) / 2  <=>  (I + sigma2 B / 2) F = E + sigma2 (v + v_free)/2
+  double A[D * D];
+  for (int r = 0; r < D; ++r) {
+    rhs[r] += 0.5 * p.viscous * (v[r] + v_free[r]);
+    for (int c = 0; c < D; ++c) A[D * r + c] = (r == c ? 1.0 : 0.0) + 0.5 * p.viscous * B[D * r + c];
+  }
+  if (!SolveLinear<D>(A, rhs, 1e-300, force)) {
+    for (int j = 0; j < D; ++j) force[j] = rhs[j];  // (B is PSD: I + sB/2 is never singular)
+  }
+}
+
+template void AdvanceGms<1>(const LawParameters&, const LawInput&, const double*, double*,
+                            double*, double);
+template void AdvanceGms<2>(const LawParameters&, const LawInput&, const double*, double*,
+                            double*, double);
+template void GmsElementForce<1>(const LawParameters&, const double*, double*);
+template void GmsElementForce<2>(const LawParameters&, const double*, double*);
+template void GmsEquivalentDeflection<1>(const LawParameters&, const double*, double*);
+template void GmsEquivalentDeflection<2>(const LawParameters&, const double*, double*);
+template void GmsImplicitForce<1>(const LawParameters&, const double*, const double*,
+                                  const double*, const double*, double*);
+template void GmsImplicitForce<2>(const LawParameters&, const double*, const double*,
+                                  const double*, const double*, double*);
+
+bool ParseLaw(const char* name, Law* law) {
+  if (!name) return false;
+  static const struct { const char* name; Law law; } kNames[] = {
+      {"coulomb", Law::kCoulomb}, {"dahl", Law::kDahl}, {"dupont", Law::kDupont},
+      {"lugre", Law::kLuGre}, {"gms", Law::kGms}};
+  for (const auto& entry : kNames) {
+    if (std::strcmp(name, entry.name) == 0) {
+      *law = entry.law;
+      return true;
+    }
+  }
+  return false;
+}
+
+const char* LawName(Law law) {
+  switch (law) {
+    case Law::kCoulomb: return "coulomb";
+    case Law::kDahl: return "dahl";
+    case Law::kDupont: return "dupont";
+    case Law::kLuGre: return "lugre";
+    case Law::kGms: return "gms";
+  }
+  return "unknown";
+}
+
+}  // namespace vibrofriction

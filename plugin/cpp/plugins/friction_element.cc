@@ -1,0 +1,343 @@
+#include "plugins/friction_element.h"
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <utility>
+#include <vector>
+
+#include "common/element_config.h"
+#include "common/plugin_util.h"
+
+namespace vibrofriction {
+namespace {
+
+using namespace keys;  // NOLINT: the shared MJCF keys (element_config.h)
+
+// Keys of this element only.
+constexpr char kAsymmetry[] = "asymmetry";
+constexpr char kRipple[] = "ripple";
+constexpr char kRippleWavelength[] = "ripple_wavelength";
+constexpr char kRipplePhase[] = "ripple_phase";
+constexpr char kForceOffset[] = "force_offset";
+constexpr char kSensorLag[] = "sensor_lag";
+
+const char* const kAttributes[] = {
+    kLaw, kMu, kNormal, kNormalSensor, kNormalGain, kNormalComponent, kContactGeom1,
+    kContactGeom2, kStiffness, kAlpha, kBreakaway, kSigma1, kViscous, kStaticRatio,
+    kStribeckVelocity, kAsymmetry, kRipple, kRippleWavelength, kRipplePhase, kNormalModulation,
+    kModulationFrequency, kModulationPhase, kForceOffset, kSensorLag, kGmsStiffness, kGmsWeight,
+    kGmsRelaxationTime, kPositionMapKnots, kPositionMapFactors, kPositionMapPeriod,
+    kVelocityMapKnots, kVelocityMapFactors, kNormalFromCtrl};
+
+constexpr char kPlugin[] = "vibrofriction.friction";
+
+}  // namespace
+
+// The element acts along one coordinate: a slide joint (N, m), a hinge (N m, rad: joint
+// friction of an arm), or a fixed tendon of such joints, with a non-zero gear. A ball or free
+// joint, a spatial tendon or a site is refused naming the fix.
+static bool CheckTransmission(const mjModel* m, int actuator) {
+  const int id = m->actuator_trnid[2 * actuator];
+  switch (m->actuator_trntype[actuator]) {
+    case mjTRN_JOINT:
+    case mjTRN_JOINTINPARENT:
+      if (m->jnt_type[id] != mjJNT_SLIDE && m->jnt_type[id] != mjJNT_HINGE) {
+        ConfigError("%s: the actuator's joint '%s' is a ball or free joint; the element acts "
+                    "along one coordinate: put it on a slide or hinge joint (or a fixed tendon), "
+                    "and use vibrofriction.planar for a body sliding in a plane", kPlugin,
+                    mj_id2name(m, mjOBJ_JOINT, id) ? mj_id2name(m, mjOBJ_JOINT, id) : "");
+        return false;
+      }
+      break;
+    case mjTRN_TENDON:
+      for (int w = m->tendon_adr[id]; w < m->tendon_adr[id] + m->tendon_num[id]; ++w) {
+        if (m->wrap_type[w] != mjWRAP_JOINT) {
+          ConfigError("%s: the actuator's tendon '%s' is not a fixed tendon; write the relative "
+                      "motion as <fixed> over slide (or hinge) joints",
+                      kPlugin, mj_id2name(m, mjOBJ_TENDON, id) ? mj_id2name(m, mjOBJ_TENDON, id)
+                                                              : "");
+          return false;
+        }
+      }
+      break;
+    default:
+      ConfigError("%s: the actuator's transmission must be a slide or hinge joint or a fixed "
+                  "tendon (joint=\"...\" or tendon=\"...\"), not a site, body or crank", kPlugin);
+      return false;
+  }
+  if (m->actuator_gear[6 * actuator] == 0) {
+    ConfigError("%s: the actuator's gear is 0, so the element sees no motion and applies no "
+                "force; leave gear at 1", kPlugin);
+    return false;
+  }
+  return true;
+}
+
+// The kinematic trees (dof_treeid) an actuator's transmission moves: its joint's, or its
+// fixed tendon's joints'.
+static void TreesOf(const mjModel* m, int actuator, std::vector<int>* trees) {
+  const int id = m->actuator_trnid[2 * actuator];
+  auto add_joint = [&](int joint) {
+    if (joint >= 0) trees->push_back(m->dof_treeid[m->jnt_dofadr[joint]]);
+  };
+  switch (m->actuator_trntype[actuator]) {
+    case mjTRN_JOINT:
+    case mjTRN_JOINTINPARENT:
+      add_joint(id);
+      break;
+    case mjTRN_TENDON:
+      for (int w = m->tendon_adr[id]; w < m->tendon_adr[id] + m->tendon_num[id]; ++w) {
+        if (m->wrap_type[w] == mjWRAP_JOINT) add_joint(m->wrap_objid[w]);
+      }
+      break;
+    default:  // a site or body transmission: assume it may share (conservative)
+      trees->push_back(-1);
+  }
+}
+
+static bool SharesTree(const mjModel* m, int a, int b) {
+  std::vector<int> ta, tb;
+  TreesOf(m, a, &ta);
+  TreesOf(m, b, &tb);
+  for (int x : ta) {
+    for (int y : tb) {
+      if (x == y || x < 0 || y < 0) return true;
+    }
+  }
+  return false;
+}
+
+bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* config,
+                               ReadScope scope) {
+  FrictionConfig c;
+  LawParameters& p = c.law;
+  if (!ReadLawParameters(m, instance, kPlugin, &p, /*takes_gms=*/true)) return false;
+  if (!NormalLoad::FromModel(m, instance, kPlugin, scope, &c.normal)) return false;
+  p.normal_force = c.normal.normal;
+
+  const struct {
+    const char* attr;
+    double* target;
+    double default_value;
+  } numbers[] = {
+      {kAsymmetry, &p.asymmetry, 0.0},
+      {kRipple, &p.ripple, 0.0},
+      {kRippleWavelength, &p.ripple_wavelength, 1e-3},
+      {kRipplePhase, &p.ripple_phase, 0.0},
+      {kForceOffset, &p.force_offset, 0.0},
+      {kSensorLag, &c.sensor_lag, 0.0},
+  };
+  for (const auto& spec : numbers) {
+    if (!ReadNumber(m, instance, kPlugin, spec.attr, spec.default_value, spec.target)) {
+      return false;
+    }
+  }
+  if (!ReadLevelMap(m, instance, kPlugin, kPositionMapKnots, kPositionMapFactors,
+                    kPositionMapPeriod, /*nonnegative_knots=*/false, &p.position_map) ||
+      !ReadLevelMap(m, instance, kPlugin, kVelocityMapKnots, kVelocityMapFactors, nullptr,
+                    /*nonnegative_knots=*/true, &p.velocity_map)) {
+    return false;
+  }
+  if (!(p.asymmetry > -1 && p.asymmetry < 1)) {
+    return RejectAttribute(kPlugin, kAsymmetry, p.asymmetry, "must lie in (-1, 1)");
+  }
+  if (!(p.ripple >= 0 && p.ripple < 1)) {
+    return RejectAttribute(kPlugin, kRipple, p.ripple, "must lie in [0, 1)");
+  }
+  if (p.ripple_wavelength <= 0) {
+    return RejectAttribute(kPlugin, kRippleWavelength, p.ripple_wavelength, "must be > 0 (m)");
+  }
+  if (c.sensor_lag < 0) {
+    return RejectAttribute(kPlugin, kSensorLag, c.sensor_lag, "must be >= 0 (s)");
+  }
+  if (!CheckIntegrator(m, kPlugin)) return false;
+  // plugin_state: [contact normal force (if contact geoms)] [lagged friction (if sensor_lag)]
+  // [gms elements' slip flags]
+  c.lag_state = NormalLoad::StateSize(m, instance);
+  c.slip_state = c.lag_state + (c.sensor_lag > 0 ? 1 : 0);
+  const int deflections = p.law == Law::kGms ? p.gms.count : 1;
+
+  c.actuator = FindActuator(m, instance, kPlugin);
+  if (c.actuator < 0) return false;
+  bool from_ctrl = false;
+  if (!ReadBool(m, instance, kPlugin, kNormalFromCtrl, false, &from_ctrl)) return false;
+  if (from_ctrl) {
+    if (c.normal.sensor >= 0 || c.normal.UsesContacts()) {
+      ConfigError("%s: 'normal_from_ctrl' and '%s' are both set; use one source for the "
+                  "normal load", kPlugin, c.normal.sensor >= 0 ? kNormalSensor : kContactGeom1);
+      return false;
+    }
+    // F_N = normal + normal_gain * ctrl of the element's own actuator (a measured load
+    // replayed step by step: no sensor stage between, so no step of delay)
+    c.normal.ctrl = m->actuator_ctrladr[c.actuator];
+  }
+  if (scope == ReadScope::kAttributes) return true;  // the actuator's fields are not set yet
+  if (m->actuator_actnum[c.actuator] < 1) {
+    ConfigError("%s: the actuator has no state for the deflection z; add actdim=\"%d\" to the "
+                "actuator plugin element", kPlugin, deflections);
+    return false;
+  }
+  if (m->actuator_actnum[c.actuator] != deflections) {
+    if (p.law == Law::kGms) {
+      ConfigError("%s: actdim=\"%d\"; law gms keeps one deflection per element and "
+                  "gms_stiffness names %d: write actdim=\"%d\"", kPlugin,
+                  m->actuator_actnum[c.actuator], deflections, deflections);
+    } else {
+      ConfigError("%s: actdim=\"%d\"; the element keeps one deflection z: write actdim=\"1\"",
+                  kPlugin, m->actuator_actnum[c.actuator]);
+    }
+    return false;
+  }
+  if (!CheckTransmission(m, c.actuator)) return false;
+  // Forces computed after the element are not known to its stick solve: a prescribed motion
+  // (vibrofriction.motion) computed after it, on a body tree the element's transmission shares,
+  // would be a disturbance the element ignores.
+  for (int j = instance + 1; j < m->nplugin; ++j) {
+    const mjpPlugin* other = mjp_getPluginAtSlot(m->plugin[j]);
+    if (!other || !other->name || std::strcmp(other->name, "vibrofriction.motion") != 0) continue;
+    for (int a = 0; a < m->nactuator; ++a) {
+      if (m->actuator_plugin[a] != j || !SharesTree(m, a, c.actuator)) continue;
+      const char* name = mj_id2name(m, mjOBJ_PLUGIN, j);
+      ConfigError("%s: a vibrofriction.motion plugin (%s%s%s) on the same body tree is computed "
+                  "after this friction element; declare it as a named <extension> instance "
+                  "before the friction element's (its force must be known to the element's "
+                  "stick solve)", kPlugin, name ? "instance '" : "inline", name ? name : "",
+                  name ? "'" : "");
+      return false;
+    }
+  }
+  c.output = m->actuator_outadr[c.actuator];
+  c.act_address = m->actuator_actadr[c.actuator];
+  *config = c;
+  return true;
+}
+
+LawInput FrictionElement::Input(const mjModel* m, const mjData* d, int instance,
+                                double velocity) const {
+  LawInput in;
+  in.velocity = velocity;
+  in.position = d->actuator_length[config_->output];
+  in.time = d->time;
+  in.normal_force = config_->normal.Value(m, d, d->plugin_state + m->plugin_stateadr[instance]);
+  return in;
+}
+
+void FrictionElement::Compute(const mjModel* m, mjData* d, int instance) {
+  if (!config_.Refresh(m, instance)) {
+    d->actuator_force[config_->output] = 0;
+    return;
+  }
+  const LawParameters& p = config_->law;
+  const double velocity = d->actuator_velocity[config_->output];
+  if (p.law == Law::kGms) {
+    const double* z = d->act + config_->act_address;
+    double friction = 0.0;
+    if (p.viscous == 0) {
+      GmsElementForce<1>(p, z, &friction);
+      friction += p.force_offset;
+    } else {
+      const StepResponse response =
+          ComputeStepResponse(m, d, config_->output, &response_workspace_);
+      const double B = m->opt.timestep * response.inverse_mass;
+      GmsImplicitForce<1>(p, z, &velocity, &response.velocity_free, &B, &friction);
+    }
+    d->actuator_force[config_->output] = -friction;
+    return;
+  }
+  const double z = d->act[config_->act_address];
+  if (HasDeflection(p.law) && p.bristle_damping == 0 && p.viscous == 0) {
+    // The common case, kept lean: no level, no input needed.
+    d->actuator_force[config_->output] = -UndampedStateForce(p, velocity, z);
+    return;
+  }
+  const LawInput in = Input(m, d, instance, velocity);
+  double friction;
+  if (HasDeflection(p.law)) {
+    // Damping terms at the end-of-step velocity (see ImplicitStateForce).
+    const StepResponse response = ComputeStepResponse(m, d, config_->output, &response_workspace_);
+    friction = ImplicitStateForce(p, in, z, response.velocity_free,
+                                  m->opt.timestep * response.inverse_mass);
+  } else {
+    // Rigid Coulomb: the force that stops the transmission within this step, if admissible.
+    const StepResponse response = ComputeStepResponse(m, d, config_->output, &response_workspace_);
+    const double stick_force =
+        response.inverse_mass > 0
+            ? response.velocity_free / (m->opt.timestep * response.inverse_mass)
+            : 0.0;
+    friction = StickSlipForce(p, in, stick_force);
+  }
+  d->actuator_force[config_->output] = -friction;
+}
+
+void FrictionElement::WriteSensor(const mjModel* m, mjData* d, int instance, mjtNum* out) {
+  if (!config_.Refresh(m, instance, /*later_in_step=*/true)) {
+    mju_zero(out, kSensorDim);
+    return;
+  }
+  const LawInput in = Input(m, d, instance, d->actuator_velocity[config_->output]);
+  const double friction = -d->actuator_force[config_->output];
+  out[0] = friction;
+  out[1] = Deflection(d);
+  out[2] = in.velocity;
+  out[3] = ModulatedNormalLoad(config_->law, in);  // < 0: lifted off, the law uses 0
+  out[4] = config_->sensor_lag > 0
+               ? d->plugin_state[m->plugin_stateadr[instance] + config_->lag_state]
+               : friction;
+}
+
+void FrictionElement::Advance(const mjModel* m, mjData* d, int instance) {
+  if (!config_.Refresh(m, instance, /*later_in_step=*/true)) return;
+  const double dt = m->opt.timestep;
+  mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
+  if (config_->normal.UsesContacts()) {
+    config_->normal.Update(m, d, state);  // this step's contact force, for the next step
+  }
+  if (config_->sensor_lag > 0) {
+    // Exact first-order lag over the step, driven by this step's force.
+    mjtNum* lagged = state + config_->lag_state;
+    const double friction = -d->actuator_force[config_->output];
+    *lagged = FirstOrderLagStep(*lagged, friction, friction, dt, config_->sensor_lag);
+  }
+  if (!HasDeflection(config_->law.law)) return;
+  // z update with the velocity *after* this step's integration (see header).
+  LawInput in = Input(m, d, instance, TransmissionVelocity(m, d, config_->output));
+  in.time = d->time - 0.5 * dt;  // mid-step: time has already advanced
+  in.position += 0.5 * dt * in.velocity;
+  mjtNum* z = d->act + config_->act_address;
+  if (config_->law.law == Law::kGms) {
+    AdvanceGms<1>(config_->law, in, &in.velocity, z, state + config_->slip_state, dt);
+    return;
+  }
+  *z = AdvanceDeflection(config_->law, in, *z, dt);
+}
+
+double FrictionElement::Deflection(const mjData* d) const {
+  const LawParameters& p = config_->law;
+  if (!HasDeflection(p.law)) return 0.0;
+  const mjtNum* z = d->act + config_->act_address;
+  if (p.law != Law::kGms) return z[0];
+  double deflection;
+  GmsEquivalentDeflection<1>(p, z, &deflection);
+  return deflection;
+}
+
+int FrictionElement::StateSize(const mjModel* m, int instance) {
+  double lag = 0.0;
+  const char* text = mj_getPluginConfig(m, instance, kSensorLag);
+  if (text && text[0]) lag = std::strtod(text, nullptr);
+  return NormalLoad::StateSize(m, instance) + (lag > 0 ? 1 : 0) + GmsElementCount(m, instance);
+}
+
+void FrictionElement::RegisterPlugin() {
+  mjpPlugin plugin;
+  mjp_defaultPlugin(&plugin);
+  plugin.name = kName;
+  plugin.capabilityflags |= mjPLUGIN_ACTUATOR;
+  plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
+  plugin.attributes = kAttributes;
+  SetPluginCallbacks<FrictionElement, &FrictionConfig::FromModel>(&plugin);
+  mjp_registerPlugin(&plugin);
+}
+
+}  // namespace vibrofriction

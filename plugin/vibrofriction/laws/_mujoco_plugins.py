@@ -1,0 +1,50 @@
+"""``import mujoco`` registers the vibrofriction plugins.
+
+``register`` is the package's entry point in the group ``mujoco.plugins`` (pyproject.toml),
+which mujoco's ``__init__`` calls at its end. It loads the plugin library and nothing else: it
+may run while ``import vibrofriction`` is itself half done (that import imports mujoco), so it
+uses no other module of the package but the generated ``_build_info``. (Importing it runs the
+package's ``__init__`` and that of ``vibrofriction.laws`` inside mujoco's unfinished import: keep
+both light, with no module that needs mujoco fully imported at its top level.)
+``vibrofriction.load()`` loads the same file by the same absolute path: MuJoCo's second
+``dlopen`` of it registers nothing again.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+LIBRARY_NAME = "libvibrofriction_plugin.so"
+# The MuJoCo versions the sources build and pass against (pyproject.toml's build requirement).
+SUPPORTED_MUJOCO = ">=3.17,<4.1"
+
+
+def library_path() -> Path:
+    """Absolute path of the plugin library at the root of the installed package."""
+    return Path(__file__).resolve().parents[1] / LIBRARY_NAME
+
+
+def version_mismatch(compiled: str, runtime: str) -> str | None:
+    """The message for a MuJoCo other than the one the library was compiled against."""
+    if compiled == runtime:
+        return None
+    return (f"vibrofriction was compiled against MuJoCo {compiled} but MuJoCo {runtime} is "
+            f"installed; install mujoco=={compiled}, or rebuild vibrofriction against "
+            f"{runtime} (supported: {SUPPORTED_MUJOCO}): echo mujoco=={runtime} > c.txt && "
+            "PIP_CONSTRAINT=c.txt PIP_BUILD_CONSTRAINT=c.txt pip install --force-reinstall "
+            "--no-cache-dir .")
+
+
+def register() -> None:
+    """Load the plugin library into MuJoCo (mujoco turns an exception here into a warning)."""
+    import mujoco  # (mid-import when mujoco calls this: its functions are already defined)
+
+    from .. import _build_info
+
+    message = version_mismatch(_build_info.MUJOCO_VERSION, mujoco.mj_versionString())
+    if message:
+        raise ImportError(message)
+    path = library_path()
+    if not path.is_file():
+        raise ImportError(f"vibrofriction plugin library not found at {path}; reinstall the "
+                          "package (pip install .)")
+    mujoco.mj_loadPluginLibrary(str(path))

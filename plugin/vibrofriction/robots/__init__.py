@@ -1,0 +1,10 @@
+"""Robots with vibration-assisted friction, resolved or at the robot's timestep.
+
+* ``scenes``: the robot scenes of mjcf_models/robots/ (plate push, vibratory feeder): build, run,
+  render;
+* ``robot_arm``: a real arm (dm_control's Kinova Jaco) in a cell with a feeder and a plate;
+* ``averaged``: the averaged element's tables (the planar law averaged over the vibration);
+* ``feeder_map``: the feeder element's map, made from the exact feeder reference.
+
+(Nothing is imported here: ``from vibrofriction.robots import scenes``.)
+"""
