@@ -39,7 +39,7 @@ def main() -> None:
     ref = simulate_reference(r, f, args.duration, sample_dt_s=1e-6)
     t_ref = np.asarray(ref.time_s)
     reference = mean_after(t_ref, r.drive_stiffness_N_per_m *
-                           (r.drive_velocity_m_per_s * t_ref - np.asarray(ref.position_m)))
+                           (r.drive_velocity_m_per_s * t_ref - np.asarray(ref.slider_position_m)))
     transition_s = 2 * f.friction_coefficient * r.normal_force_N / \
         f.contact_stiffness_N_per_m / r.vibration_velocity_amplitude_m_per_s
     print(f"mean drive force from {1e3 * settled_from_s:g} ms; scipy reference "

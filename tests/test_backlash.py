@@ -48,7 +48,7 @@ def test_the_rig_with_backlash_is_the_reference(faces_N_per_m, centre_m, damping
     tolerance = (3e-4 if damping_N_s_per_m else 1e-4) * scale
     np.testing.assert_allclose(run.drive_force_N[1:n], ref.drive_force_N[1:n], rtol=0,
                                atol=tolerance)
-    spring = reference.drive_spring_force_N(params, ref.time_s, ref.position_m)
+    spring = reference.drive_spring_force_N(params, ref.time_s, ref.slider_position_m)
     np.testing.assert_allclose(run.dynamometer_force_N[:n], spring[:n], rtol=0, atol=1e-4 * scale)
     if damping_N_s_per_m:  # the damper acts beside the spring, not through the dynamometer
         assert np.max(np.abs(run.drive_force_N - run.dynamometer_force_N)) > 1e-3 * scale

@@ -301,8 +301,8 @@ def test_a_stage_without_vibration_is_refused_where_the_study_averages(tmp_path,
 
 def test_an_unreachable_dask_scheduler_is_one_message(monkeypatch, capsys):
     pytest.importorskip("dask.distributed", reason="the optional extra dask is not installed")
-    from vibrofriction.study import sweep as study_sweep
-    monkeypatch.setattr(study_sweep, "CONNECT_TIMEOUT_S", 1)
+    from vibrofriction.rigs import sweep as sweep_engine
+    monkeypatch.setattr(sweep_engine, "CONNECT_TIMEOUT_S", 1)
     _one_line_exit_2(capsys, cli.main(["sweep", "--va", "1e-3", "--scheduler", "127.0.0.1:9",
                                        *SHORT]), "no Dask scheduler answers there")
 

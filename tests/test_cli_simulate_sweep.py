@@ -151,12 +151,12 @@ def test_sweep_threads_with_a_scheduler_is_refused_before_connecting(tmp_path, c
                                                                      monkeypatch):
     """--threads sets local rollout threads; with --scheduler it could not apply, so the pair
     is one usage error (exit 2) naming both options and the fix, before any connection."""
-    import vibrofriction.study.sweep as study_sweep
+    import vibrofriction.rigs.sweep as sweep_engine
 
     def no_cluster(*args, **kwargs):
         raise AssertionError("the sweep reached the Dask cluster")
 
-    monkeypatch.setattr(study_sweep, "dask_map", no_cluster)
+    monkeypatch.setattr(sweep_engine, "dask_map", no_cluster)
     out = tmp_path / "sweep.json"
     assert main(["sweep", "--va", "3e-3", "--threads", "2", "--scheduler", "tcp://127.0.0.1:9",
                  "--json", str(out)]) == 2

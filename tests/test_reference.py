@@ -80,8 +80,8 @@ def test_outputs_are_consistent_and_t_start_only_crops():
     t = full.time_s
     np.testing.assert_allclose(full.support_velocity_m_per_s, 3e-3 * np.cos(2 * np.pi * 4000 * t))
     np.testing.assert_allclose(full.relative_velocity_m_per_s,
-                               full.velocity_m_per_s - full.support_velocity_m_per_s)
-    np.testing.assert_allclose(full.drive_force_N, 1e6 * (0.5e-3 * t - full.position_m))
+                               full.slider_velocity_m_per_s - full.support_velocity_m_per_s)
+    np.testing.assert_allclose(full.drive_force_N, 1e6 * (0.5e-3 * t - full.slider_position_m))
     np.testing.assert_allclose(full.friction_force_N, 80e6 * full.deflection_m)  # Dahl
     assert full.period_s == 1 / 4000
     assert simulate_reference(_paper_rig(), dahl, 1e-3).period_s == 0.0  # no vibration
@@ -102,7 +102,7 @@ def test_dahl_virgin_loading_under_slow_drive(alpha):
     friction = FrictionParameters(law="dahl", alpha=alpha)
     result = simulate_reference(_paper_rig(), friction, 0.02, sample_dt_s=1e-5)
     loading = result.friction_force_N < 0.9 * BOUND_N
-    expected = analytic.dahl_virgin_loading(result.position_m[loading],
+    expected = analytic.dahl_virgin_loading(result.slider_position_m[loading],
                                             friction.contact_stiffness_N_per_m, BOUND_N, alpha)
     np.testing.assert_allclose(result.friction_force_N[loading], expected, atol=5e-3 * BOUND_N)
 
@@ -150,7 +150,7 @@ def test_coulomb_sticks_to_the_table_until_the_static_level():
     phase = slice(first_stick, breakaway)
     assert np.all(result.relative_velocity_m_per_s[phase] == 0.0)
     support_m = rig.vibration_amplitude_m * np.sin(2 * np.pi * 4000 * result.time_s[phase])
-    rel_m = result.position_m[phase] - support_m
+    rel_m = result.slider_position_m[phase] - support_m
     assert np.ptp(rel_m) < 1e-12
     static_N = 1.3 * BOUND_N
     assert np.all(np.abs(result.friction_force_N[phase]) <= static_N * (1 + 1e-9))
@@ -227,7 +227,7 @@ def test_position_ripple_is_periodic_in_relative_position(law):
                   position_ripple_phase_rad=0.5)
     result = simulate_reference(_paper_rig(), FrictionParameters(law=law, **ripple), 0.15,
                                 sample_dt_s=1e-5, t_start_s=0.06)
-    expected = BOUND_N * (1 + 0.05 * np.sin(2 * np.pi * result.position_m / 20e-6 + 0.5))
+    expected = BOUND_N * (1 + 0.05 * np.sin(2 * np.pi * result.slider_position_m / 20e-6 + 0.5))
     np.testing.assert_allclose(result.friction_force_N, expected, atol=0.005 * BOUND_N)
 
 

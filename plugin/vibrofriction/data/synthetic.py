@@ -163,7 +163,7 @@ def generate(scenario: Scenario, name: str = "synthetic", description: str = "")
     # The dynamometer is the drive spring: it reads k_d (v_d t - x) (through any backlash),
     # through its lag; a damper acting in parallel (drive_damping) pushes the slider without
     # passing through it.
-    spring = drive_spring_force_N(rig, ref.time_s, ref.position_m)
+    spring = drive_spring_force_N(rig, ref.time_s, ref.slider_position_m)
     if scenario.measured == "drive" and lag_s > 0:
         spring = first_order_lag(spring, float(ref.time_s[1] - ref.time_s[0]), lag_s)
     if oversample > 1:
@@ -179,8 +179,8 @@ def generate(scenario: Scenario, name: str = "synthetic", description: str = "")
 
     columns = {
         "time_s": t,
-        "position_m": noisy(ref.position_m, noise.position_m),
-        "velocity_m_per_s": noisy(ref.velocity_m_per_s, noise.velocity_m_per_s),
+        "position_m": noisy(ref.slider_position_m, noise.position_m),
+        "velocity_m_per_s": noisy(ref.slider_velocity_m_per_s, noise.velocity_m_per_s),
         "support_velocity_m_per_s": noisy(ref.support_velocity_m_per_s, noise.velocity_m_per_s),
         "support_position_m": noisy(support_position, noise.position_m),
     }

@@ -75,7 +75,21 @@ def _finite(value: float | tuple[float, ...]) -> float | list | None:
 # -------------------------------------------------------------------------------- markdown
 
 def report_markdown(result: Identification, rig_replay: dict | None = None) -> str:
-    r = result
+    """The report.md of an identification: one section writer after another."""
+    lines: list[str] = []
+    lines += _header_lines(result)
+    lines += _error_lines(result)
+    lines += _selected_lines(result)
+    lines += _rounds_lines(result)
+    lines += _parameter_lines(result)
+    lines += _residual_lines(result)
+    lines += _mujoco_lines(result, rig_replay)
+    lines += _closing_lines()
+    return "\n".join(lines)
+
+
+def _header_lines(r: Identification) -> list[str]:
+    """The record, the law and what was measured."""
     record = r.train
     lines = [f"# Identification: {record.name}", ""]
     lines += [
@@ -97,6 +111,13 @@ def report_markdown(result: Identification, rig_replay: dict | None = None) -> s
         lines.append(f"- parallel zero-phase low-pass at {r.settings['lowpass_Hz']:g} Hz on the "
                      "measured force and on the model output (position filtered before "
                      "differentiation); errors are of the filtered signals")
+    return lines
+
+
+def _error_lines(r: Identification) -> list[str]:
+    """The error table, baseline and final, training and held out."""
+    record = r.train
+    lines: list[str] = []
     lines += ["", "## Error before and after", "",
               "| model | " + " | ".join(["training"] + [f"held-out `{v.name}`"
                                                    for v in r.validation]) + " |",
@@ -106,6 +127,12 @@ def report_markdown(result: Identification, rig_replay: dict | None = None) -> s
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
     lines += ["", "Cells: RMSE (relative error 100 ||y - y_hat|| / ||y||) of the measured "
               f"{record.target} force.", ""]
+    return lines
+
+
+def _selected_lines(r: Identification) -> list[str]:
+    """Each selected effect, why, its values and its ties."""
+    lines: list[str] = []
     lines += ["## Selected effects and why", ""]
     if not r.selected:
         lines.append("None: no candidate effect passed the criterion (below). The baseline "
@@ -127,6 +154,12 @@ def report_markdown(result: Identification, rig_replay: dict | None = None) -> s
                      + (f"; held-out RMSE {100 * (math.exp(c.validation_log_ratio) - 1):+.1f} %"
                         if c.validation_log_ratio is not None else "")
                      + f". {values}.{exposed}{tied}")
+    return lines
+
+
+def _rounds_lines(r: Identification) -> list[str]:
+    """Every candidate of every round with its dBIC and verdict."""
+    lines: list[str] = []
     lines += ["", "## Candidates, round by round", "",
               "dBIC = n_eff ln(RSS_E/RSS_M) + (k_E - k_M) ln(n_eff) against the model of that "
               "round (negative favours the effect); justified when dBIC < "
@@ -150,6 +183,12 @@ def report_markdown(result: Identification, rig_replay: dict | None = None) -> s
         lines += ["Not candidates here:", ""]
         lines += [f"- {effect}: {why}" for effect, why in r.skipped.items()]
         lines.append("")
+    return lines
+
+
+def _parameter_lines(r: Identification) -> list[str]:
+    """The parameters of the baseline and final models."""
+    lines: list[str] = []
     lines += ["## Final parameters", "",
               "1-sigma from the Jacobian at the optimum, s^2 (J^T J)^-1 with s^2 = RSS/(n - k), "
               "inflated by n/n_eff for the residual's autocorrelation "
@@ -160,6 +199,12 @@ def report_markdown(result: Identification, rig_replay: dict | None = None) -> s
         before = _pm(r.baseline, name) if name in r.baseline.values else ""
         after = _pm(r.final, name) if name in r.final.values else ""
         lines.append(f"| {name} | {before} | {after} |")
+    return lines
+
+
+def _residual_lines(r: Identification) -> list[str]:
+    """What is left in the residual: shares, peaks, ringing."""
+    lines: list[str] = []
     lines += ["", "## Residual", ""]
     for label, analysis in (("baseline", r.baseline_analysis), ("final", r.final_analysis)):
         shares = ", ".join(f"{b.regressor} {100 * b.explained:.1f} %"
@@ -188,6 +233,12 @@ def report_markdown(result: Identification, rig_replay: dict | None = None) -> s
                   "before its dynamometer, is the simulation path's `backlash` candidate; a play "
                   "or compliance between the measured displacement and the contact is not in "
                   "the vocabulary yet.", ""]
+    return lines
+
+
+def _mujoco_lines(r: Identification, rig_replay: dict | None) -> list[str]:
+    """The final model as a simulate command, and its replay in the rig."""
+    lines: list[str] = []
     lines += ["## The final model in MuJoCo", "",
               "Every fitted value is a field of FrictionParameters / RigParameters, i.e. a config "
               "attribute of the `vibrofriction.friction` plugin (docs/simulation.md, "
@@ -200,6 +251,12 @@ def report_markdown(result: Identification, rig_replay: dict | None = None) -> s
                   f"{rig_replay['signal']} against the record: baseline "
                   f"{rig_replay['baseline_relerr_pct']:.3g} %, final "
                   f"{rig_replay['final_relerr_pct']:.3g} %.", ""]
+    return lines
+
+
+def _closing_lines() -> list[str]:
+    """The figures and the method."""
+    lines: list[str] = []
     lines += ["## Figures", "",
               "- `fit.png`: measured vs model, baseline and final",
               "- `residual_vs_regressor.png`: baseline and final residual against the regressor "
@@ -211,7 +268,7 @@ def report_markdown(result: Identification, rig_replay: dict | None = None) -> s
               "measured force is the friction (friction records) or m a + friction - h_d (v_d - "
               "xdot) (drive-force records). scipy least_squares (trf) fits all parameters of a "
               "model at once; each candidate effect is refitted with everything else.", ""]
-    return "\n".join(lines)
+    return lines
 
 
 def _metric_cell(m) -> str:

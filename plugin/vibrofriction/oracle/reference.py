@@ -72,8 +72,8 @@ class ReferenceResult:
     """Sampled time series of one reference run; forces in N, F_F > 0 against +x motion."""
 
     time_s: np.ndarray
-    position_m: np.ndarray  # x
-    velocity_m_per_s: np.ndarray  # x'
+    slider_position_m: np.ndarray  # x
+    slider_velocity_m_per_s: np.ndarray  # x'
     support_velocity_m_per_s: np.ndarray  # u' = v_a cos(wt)
     relative_velocity_m_per_s: np.ndarray  # v_r = x' - u'
     deflection_m: np.ndarray  # z (zero for the rigid Coulomb law)
@@ -635,8 +635,9 @@ def _series(drive: _Rig, t: np.ndarray, x: np.ndarray, xdot: np.ndarray, z: np.n
             friction_N: np.ndarray, sticking: np.ndarray) -> dict[str, np.ndarray]:
     udot = drive.support_velocity(t)
     return {
-        "position_m": x, "velocity_m_per_s": xdot, "support_velocity_m_per_s": udot,
-        "relative_velocity_m_per_s": xdot - udot, "deflection_m": z,
+        "slider_position_m": x, "slider_velocity_m_per_s": xdot,
+        "support_velocity_m_per_s": udot, "relative_velocity_m_per_s": xdot - udot,
+        "deflection_m": z,
         "friction_force_N": friction_N,
         "drive_force_N": np.array([drive.drive_force(ti, xi, vi) for ti, xi, vi in
                                    zip(t.tolist(), x.tolist(), xdot.tolist())]),

@@ -11,13 +11,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Any
+from typing import Any, Callable, Sequence
 
 from . import rig as rig_module
 from ..errors import InputError
 from ..params import FrictionParameters, RigParameters, as_dict
-from .steady import (DEFAULT_TOLERANCE, MIN_WINDOWS, Convergence, SteadyRun, convergence_of_run,
-                     run_until_steady)
+from .steady import (DEFAULT_TOLERANCE, MIN_WINDOWS, Case, Convergence, SteadyRun,
+                     convergence_of_run, run_until_steady)
 from ..summary import RunSummary
 
 POINT_KEYS = ("vibration_velocity_amplitude_m_per_s", "kappa", "mean_drive_force_N", "ratio",
@@ -28,27 +28,135 @@ CONVERGENCE_KEYS = ("converged", "estimated_remaining_error", "relative_change",
                     "timestep_s")
 
 
-def run_cases(cases: list[tuple[RigParameters, FrictionParameters]], *,
-              timestep_s: float | None = None, duration_s: float | None = None,
+CONNECT_TIMEOUT_S = 10  # waiting for a --scheduler to answer
+
+
+class DaskUnavailable(InputError):
+    """--scheduler was given but dask.distributed is not installed."""
+
+
+def run_cases(cases: Sequence[Case], *, timestep_s: float | None = None,
+              timesteps: Sequence[float] | None = None, duration_s: float | None = None,
               settle_time_s: float | None = None, tolerance: float = DEFAULT_TOLERANCE,
               max_duration_s: float | None = None, nthread: int | None = None,
+              chunk_size: int | None = None, scheduler: Any = None,
               progress: Any = None, keep_series: bool = False) -> list[SteadyRun]:
-    """Each case's summary and convergence: run to steady state (no ``duration_s``), or for
-    ``duration_s`` at ``timestep_s`` (default: the finest the cases recommend)."""
+    """The one engine of the package's sweeps: each case's summary and convergence, in the
+    cases' order.
+
+    Each case runs to steady state (no ``duration_s``) at its timestep (``timesteps``, else
+    ``timestep_s`` for all, else its recommended one), or for ``duration_s`` at ``timestep_s``
+    (default: the finest the cases recommend). Locally the cases run on rollout threads: all
+    together, or with ``chunk_size`` a chunk at a time (coarse timesteps first; the memory of a
+    chunk's runs is bounded). With ``scheduler`` (a Dask address or ``Client``) each chunk (one
+    case without ``chunk_size``) is a task on that cluster. A case's result depends only on its
+    own parameters and timestep, not on the chunks. ``progress(done, total)`` counts cases."""
+    if not cases:
+        return []
+    settings = dict(duration_s=duration_s, settle_time_s=settle_time_s, tolerance=tolerance,
+                    max_duration_s=max_duration_s)
+    if duration_s is not None:  # one timestep and one averaging window for every case
+        if timestep_s is None:
+            timestep_s = min(rig_module.recommended_timestep(r) for r, _ in cases)
+        if scheduler is not None and settle_time_s is None:
+            settings["settle_time_s"] = max(rig_module.default_times(r, f)[1] for r, f in cases)
+        dts = [timestep_s] * len(cases)
+    elif timesteps is not None:
+        dts = list(timesteps)
+    elif timestep_s is not None:
+        dts = [timestep_s] * len(cases)
+    else:
+        dts = [rig_module.recommended_timestep(r) for r, _ in cases]
+    if scheduler is None and chunk_size is None:
+        return _run_chunk((list(cases), dts, dict(settings, nthread=nthread,
+                                                  keep_series=keep_series), progress))
+    chunks = _chunks(dts, chunk_size or 1)
+    jobs = [([cases[i] for i in chunk], [dts[i] for i in chunk],
+             dict(settings, nthread=nthread, keep_series=keep_series), None)
+            for chunk in chunks]
+    if scheduler is None:
+        done: list[list[SteadyRun]] = []
+        for job in jobs:
+            done.append(_run_chunk(job))
+            if progress:
+                progress(sum(map(len, done)), len(cases))
+    else:
+        done = dask_map(_run_chunk, jobs, scheduler, sizes=[len(c) for c in chunks],
+                        progress=progress)
+    out: list[SteadyRun | None] = [None] * len(cases)
+    for chunk, results in zip(chunks, done):
+        for i, result in zip(chunk, results):
+            out[i] = result
+    return [r for r in out if r is not None]
+
+
+def _chunks(dts: Sequence[float], size: int) -> list[list[int]]:
+    """The cases' indices in chunks of at most ``size`` sharing a timestep, coarse first."""
+    chunks = []
+    for dt in sorted(set(dts), reverse=True):
+        idx = [i for i, d in enumerate(dts) if d == dt]
+        chunks += [idx[start:start + size] for start in range(0, len(idx), size)]
+    return chunks
+
+
+def _run_chunk(job: tuple) -> list[SteadyRun]:
+    """One chunk of cases on local rollout threads (also a task on a Dask worker)."""
+    cases, dts, settings, progress = job
+    settings = dict(settings)
+    duration_s, settle_time_s = settings.pop("duration_s"), settings.pop("settle_time_s")
     if duration_s is None:
-        timesteps = None if timestep_s is None else [timestep_s] * len(cases)
-        return run_until_steady(cases, timesteps=timesteps, tolerance=tolerance,
-                                max_duration_s=max_duration_s, nthread=nthread,
-                                progress=progress, keep_series=keep_series)
-    if timestep_s is None:
-        timestep_s = min(rig_module.recommended_timestep(r) for r, _ in cases)
-    runs = rig_module.simulate_many(cases, duration_s=duration_s, timestep_s=timestep_s,
-                                    settle_time_s=settle_time_s, nthread=nthread,
+        return run_until_steady(cases, timesteps=dts, progress=progress, **settings)
+    tolerance, keep_series = settings["tolerance"], settings["keep_series"]
+    runs = rig_module.simulate_many(cases, duration_s=duration_s, timestep_s=dts[0],
+                                    settle_time_s=settle_time_s, nthread=settings["nthread"],
                                     progress=progress)
-    return [SteadyRun(rig=run.rig, friction=run.friction, timestep_s=timestep_s,
+    return [SteadyRun(rig=run.rig, friction=run.friction, timestep_s=dts[0],
                       summary=run.summary(), convergence=convergence_of_run(
                           run, run.settle_time_s, tolerance),
                       run=run if keep_series else None) for run in runs]
+
+
+def dask_map(function: Callable[[Any], Any], items: Sequence[Any], scheduler: Any,
+             sizes: Sequence[int] | None = None, progress: Any = None) -> list:
+    """``function`` over ``items`` on a Dask cluster (``scheduler``: an address or a
+    ``Client``), the results in the items' order; ``progress(done, total)`` counts ``sizes``
+    (default one per item) as items complete."""
+    try:
+        from dask.distributed import Client, as_completed
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise DaskUnavailable(
+            "--scheduler needs dask.distributed; install the extra: pip install "
+            "'vibrofriction[dask]' (or pip install 'dask[distributed]')") from exc
+    sizes = list(sizes) if sizes is not None else [1] * len(items)
+    own_client = not isinstance(scheduler, Client)
+    try:
+        client = Client(scheduler, timeout=CONNECT_TIMEOUT_S) if own_client else scheduler
+    except (OSError, TimeoutError) as exc:
+        raise InputError(f"--scheduler {scheduler}: no Dask scheduler answers there ({exc}); "
+                         "start one (dask scheduler) or check the address") from None
+    try:
+        futures = client.map(function, list(items), pure=False)
+        position = {future.key: i for i, future in enumerate(futures)}
+        out: list[Any] = [None] * len(futures)
+        done = 0
+        for future in as_completed(futures):
+            i = position[future.key]
+            out[i] = future.result()
+            done += sizes[i]
+            if progress:
+                progress(done, sum(sizes))
+        return out
+    finally:
+        if own_client:
+            client.close()
+
+
+def joint_convergence(run: SteadyRun, static: SteadyRun) -> tuple[bool, float]:
+    """The convergence of a ratio F_d-v/F_d-s: both runs converged, and the larger estimated
+    remaining error of the two."""
+    return (bool(run.convergence.converged and static.convergence.converged),
+            float(max(run.convergence.estimated_remaining_error,
+                      static.convergence.estimated_remaining_error)))
 
 
 def sweep(rig: RigParameters, friction: FrictionParameters, amplitudes: list[float], *,
@@ -67,21 +175,10 @@ def sweep(rig: RigParameters, friction: FrictionParameters, amplitudes: list[flo
     cases += [(replace(rig, vibration_velocity_amplitude_m_per_s=va), friction)
               for va in amplitudes]
     report = rig_module.progress_printer("sweep") if progress else None
-    settings = dict(timestep_s=timestep_s, duration_s=duration_s, settle_time_s=settle_time_s,
-                    tolerance=tolerance, max_duration_s=max_duration_s)
-    if scheduler is None:
-        results = run_cases(cases, nthread=nthread, progress=report, **settings)
-    else:
-        from ..study.sweep import dask_map
-        if duration_s is not None:  # one timestep and window for all, as locally
-            if timestep_s is None:
-                settings["timestep_s"] = min(rig_module.recommended_timestep(r)
-                                             for r, _ in cases)
-            if settle_time_s is None:
-                settings["settle_time_s"] = max(rig_module.default_times(r, f)[1]
-                                                for r, f in cases)
-        results = dask_map(_case_result, [(r, f, settings) for r, f in cases], scheduler,
-                           progress=report)
+    results = run_cases(cases, timestep_s=timestep_s, duration_s=duration_s,
+                        settle_time_s=settle_time_s, tolerance=tolerance,
+                        max_duration_s=max_duration_s, nthread=nthread, scheduler=scheduler,
+                        progress=report)
     static = results[0].summary.mean_drive_force_N
     points = []
     for (case_rig, _), result in zip(cases[1:], results[1:]):
@@ -155,9 +252,3 @@ def unconverged_lines(result: dict[str, Any], *, fixed: bool = False) -> list[st
 
 def _inf(value: float | None) -> float:
     return math.inf if value is None else value
-
-
-def _case_result(job: tuple) -> SteadyRun:
-    """One case of a sweep on a Dask worker: its summary and convergence (no time series)."""
-    rig, friction, settings = job
-    return run_cases([(rig, friction)], **settings)[0]

@@ -130,6 +130,26 @@ def _oracle_check(results: StudyResults, worst_below: float) -> dict[str, Any] |
 
 
 def claim_no_reduction(results: StudyResults) -> Claim:
+    values = _no_reduction_values(results)
+    holds_equal, holds = _no_reduction_verdict(values)
+    kappas = sorted({p.kappa for p in results.master if p.kappa <= 1.0 + 1e-9})
+    return Claim(
+        id="no_reduction_at_or_below_drive_velocity",
+        paper="When v_a <= v_d the friction force keeps F_F = mu F_N = const; the vibrations "
+              "do not reduce the drive force (section 4, Fig. 7; section 6).",
+        definition="max of abs(1 - F_dv/F_ds) (F_dv, F_ds: mean drive force over whole periods "
+                   f"with / without vibration) over kappa_v < 1 and at kappa_v = 1, counted "
+                   f"as no reduction below {NO_REDUCTION_TOLERANCE * 100:g} %; kappa_v grid "
+                   f"{kappas}; F_F peak-to-peak at v_a = 0.25 mm/s over mu F_N (Fig. 7).",
+        computed=_no_reduction_computed(values),
+        values=values, holds=holds,
+        note=" ".join(_no_reduction_notes(values, holds_equal, results.config)))
+
+
+def _no_reduction_values(results: StudyResults) -> dict[str, Any]:
+    """The numbers of claim_no_reduction: the deviations |1 - F_dv/F_ds| below and at
+    kappa_v = 1 (paper rig, Fig. 14 configuration, grid sweep), the oracle's re-run of the worst,
+    the friction ripple at 0.25 mm/s and the stiffness study at kappa_v = 1."""
     below = _deviations(results.master, True)
     equal = _deviations(results.master, False)
     below14 = _deviations(results.fig14, True)
@@ -153,7 +173,6 @@ def claim_no_reduction(results: StudyResults) -> Claim:
     level = va.static_drive_force_N
     ripple = {"dahl": (va.friction_force_N.max() - va.friction_force_N.min()) / level,
               "coulomb": (vc.friction_force_N.max() - vc.friction_force_N.min()) / level}
-    kappas = sorted({p.kappa for p in results.master if p.kappa <= 1.0 + 1e-9})
     # Near the contact resonance the slider itself vibrates and slips at kappa_v = 1.
     resonant = {}
     for kt in results.config.stiffness_values_N_per_m:
@@ -162,41 +181,69 @@ def claim_no_reduction(results: StudyResults) -> Claim:
             resonant[f"{kt / N_PER_UM:g}"] = {
                 "ratio_at_kappa_1": p.ratio,
                 "contact_resonance_Hz": contact_resonance_Hz(kt, results.config.rig.mass_kg)}
+    worst_below = _finite_max(below, below14, sweep_below)
+    worst_equal = _finite_max(equal, equal14, sweep_equal)
+    return {"kappa_below_1": {"paper_rig": below, "fig14": below14, "sweep": sweep_below,
+                              "sweep_worst_case": sweep_worst},
+            "kappa_equal_1": {"paper_rig": equal, "fig14": equal14, "sweep": sweep_equal},
+            "worst_below_1": worst_below, "worst_equal_1": worst_equal,
+            "oracle_check": _oracle_check(results, worst_below),
+            "friction_peak_to_peak_over_level_at_0.25mm_s": ripple,
+            "stiffness_study_at_kappa_1": resonant}
 
-    def finite_max(*groups):
-        vals = [v for g in groups for v in (g.values() if isinstance(g, dict) else [g])
-                if not math.isnan(v)]
-        return max(vals) if vals else math.nan
-    worst_below = finite_max(below, below14, sweep_below)
-    worst_equal = finite_max(equal, equal14, sweep_equal)
-    holds_below = worst_below <= NO_REDUCTION_TOLERANCE
-    holds_equal = worst_equal <= NO_REDUCTION_TOLERANCE
-    paper_ok = max(below.values()) <= NO_REDUCTION_TOLERANCE
-    holds = ("yes" if holds_below and holds_equal
-             else "partly" if paper_ok else "no")
 
-    def fmt(d):
-        """Laws beyond the tolerance by name, the others as one bound."""
-        d = {k: v for k, v in d.items() if not math.isnan(v)}
-        bad = {k: v for k, v in d.items() if v > NO_REDUCTION_TOLERANCE}
-        good = [v for k, v in d.items() if k not in bad]
-        parts = [f"{LAW_LABELS[k]} {v * 100:.3g} %" for k, v in bad.items()]
-        if good:
-            parts.append(("others" if bad else "all laws") + f" <= {max(good) * 100:.2g} %")
-        return ", ".join(parts)
-    computed = (f"kappa_v < 1: paper rig {fmt(below)}; {EXPERIMENT_FIG14.figure} configuration "
-                f"{fmt(below14)}"
-                + (f"; grid sweep worst {sweep_below * 100:.3g} %"
-                   if not math.isnan(sweep_below) else "")
-                + f". kappa_v = 1: paper rig {fmt(equal)}; {EXPERIMENT_FIG14.figure} "
-                f"configuration {fmt(equal14)}"
-                + (f"; grid sweep worst {sweep_equal * 100:.3g} %"
-                   if not math.isnan(sweep_equal) else "")
-                + f". (Deviation = abs(1 - F_dv/F_ds).) F_F peak-to-peak at 0.25 mm/s: Dahl "
-                f"{ripple['dahl'] * 100:.2g} %, Coulomb {ripple['coulomb'] * 100:.2g} % of "
-                "mu F_N")
+def _finite_max(*groups) -> float:
+    """The largest of the numbers (a dict: its values) that are not NaN; NaN if none."""
+    vals = [v for g in groups for v in (g.values() if isinstance(g, dict) else [g])
+            if not math.isnan(v)]
+    return max(vals) if vals else math.nan
+
+
+def _no_reduction_verdict(values: dict[str, Any]) -> tuple[bool, str]:
+    """(no reduction at kappa_v = 1, the claim's verdict): "yes" when no deviation below or at
+    kappa_v = 1 exceeds the tolerance, "partly" when the paper rig's below it do not."""
+    holds_below = values["worst_below_1"] <= NO_REDUCTION_TOLERANCE
+    holds_equal = values["worst_equal_1"] <= NO_REDUCTION_TOLERANCE
+    paper_ok = max(values["kappa_below_1"]["paper_rig"].values()) <= NO_REDUCTION_TOLERANCE
+    return holds_equal, ("yes" if holds_below and holds_equal
+                         else "partly" if paper_ok else "no")
+
+
+def _law_deviations_text(d: dict[str, float]) -> str:
+    """Laws beyond the tolerance by name, the others as one bound."""
+    d = {k: v for k, v in d.items() if not math.isnan(v)}
+    bad = {k: v for k, v in d.items() if v > NO_REDUCTION_TOLERANCE}
+    good = [v for k, v in d.items() if k not in bad]
+    parts = [f"{LAW_LABELS[k]} {v * 100:.3g} %" for k, v in bad.items()]
+    if good:
+        parts.append(("others" if bad else "all laws") + f" <= {max(good) * 100:.2g} %")
+    return ", ".join(parts)
+
+
+def _no_reduction_computed(values: dict[str, Any]) -> str:
+    """claim_no_reduction's line of numbers."""
+    fmt = _law_deviations_text
+    below, equal = values["kappa_below_1"], values["kappa_equal_1"]
+    sweep_below, sweep_equal = below["sweep"], equal["sweep"]
+    ripple = values["friction_peak_to_peak_over_level_at_0.25mm_s"]
+    return (f"kappa_v < 1: paper rig {fmt(below['paper_rig'])}; {EXPERIMENT_FIG14.figure} "
+            f"configuration {fmt(below['fig14'])}"
+            + (f"; grid sweep worst {sweep_below * 100:.3g} %"
+               if not math.isnan(sweep_below) else "")
+            + f". kappa_v = 1: paper rig {fmt(equal['paper_rig'])}; {EXPERIMENT_FIG14.figure} "
+            f"configuration {fmt(equal['fig14'])}"
+            + (f"; grid sweep worst {sweep_equal * 100:.3g} %"
+               if not math.isnan(sweep_equal) else "")
+            + f". (Deviation = abs(1 - F_dv/F_ds).) F_F peak-to-peak at 0.25 mm/s: Dahl "
+            f"{ripple['dahl'] * 100:.2g} %, Coulomb {ripple['coulomb'] * 100:.2g} % of "
+            "mu F_N")
+
+
+def _no_reduction_notes(values: dict[str, Any], holds_equal: bool,
+                        config: StudyConfig) -> list[str]:
+    """claim_no_reduction's explanations of the deviations beyond the tolerance."""
     notes = []
-    oracle = _oracle_check(results, worst_below)
+    oracle = values["oracle_check"]
     if oracle is not None:
         notes.append(
             f"{EXPERIMENT_FIG14.figure} configuration, {LAW_LABELS[oracle['law']]} at kappa_v = "
@@ -207,6 +254,7 @@ def claim_no_reduction(results: StudyResults) -> Claim:
             f"{oracle['band_Hz'][0]:.0f}-{oracle['band_Hz'][1]:.0f} Hz here, and the "
             f"{EXPERIMENT_FIG14.vibration_frequency_Hz:g} Hz excitation lies inside it: the "
             "slider keeps vibrating on the contact and slips although v_a < v_d.")
+    sweep_worst = values["kappa_below_1"]["sweep_worst_case"]
     if sweep_worst is not None and abs(1 - sweep_worst["ratio"]) > NO_REDUCTION_TOLERANCE:
         notes.append(f"Grid sweep, worst case below v_d: F_dv/F_ds = {sweep_worst['ratio']:.3f} "
                      f"at kappa_v {sweep_worst['kappa']:.3g}, f {sweep_worst['vibration_frequency_Hz']:g}"
@@ -219,29 +267,14 @@ def claim_no_reduction(results: StudyResults) -> Claim:
                      "zero; the slider's own vibration on the contact spring then makes v_r "
                      "reverse briefly and Dahl/LuGre unload, so the boundary case v_a = v_d "
                      "is not reduction-free in every configuration.")
+    resonant = values["stiffness_study_at_kappa_1"]
     stiff = max(resonant.items(), key=lambda kv: 1 - kv[1]["ratio_at_kappa_1"], default=None)
     if stiff is not None and 1 - stiff[1]["ratio_at_kappa_1"] > NO_REDUCTION_TOLERANCE:
         notes.append(f"Fig. 12 study at kappa_v = 1: with k_t = {stiff[0]} N/um (contact "
                      f"resonance {stiff[1]['contact_resonance_Hz']:.0f} Hz vs the "
-                     f"{results.config.rig.vibration_frequency_Hz:g} Hz excitation) "
+                     f"{config.rig.vibration_frequency_Hz:g} Hz excitation) "
                      f"F_dv/F_ds = {stiff[1]['ratio_at_kappa_1']:.3f}.")
-    return Claim(
-        id="no_reduction_at_or_below_drive_velocity",
-        paper="When v_a <= v_d the friction force keeps F_F = mu F_N = const; the vibrations "
-              "do not reduce the drive force (section 4, Fig. 7; section 6).",
-        definition="max of abs(1 - F_dv/F_ds) (F_dv, F_ds: mean drive force over whole periods "
-                   f"with / without vibration) over kappa_v < 1 and at kappa_v = 1, counted "
-                   f"as no reduction below {NO_REDUCTION_TOLERANCE * 100:g} %; kappa_v grid "
-                   f"{kappas}; F_F peak-to-peak at v_a = 0.25 mm/s over mu F_N (Fig. 7).",
-        computed=computed,
-        values={"kappa_below_1": {"paper_rig": below, "fig14": below14, "sweep": sweep_below,
-                                  "sweep_worst_case": sweep_worst},
-                "kappa_equal_1": {"paper_rig": equal, "fig14": equal14, "sweep": sweep_equal},
-                "worst_below_1": worst_below, "worst_equal_1": worst_equal,
-                "oracle_check": oracle,
-                "friction_peak_to_peak_over_level_at_0.25mm_s": ripple,
-                "stiffness_study_at_kappa_1": resonant},
-        holds=holds, note=" ".join(notes))
+    return notes
 
 
 def claim_reduction_without_sign_change(results: StudyResults) -> Claim:

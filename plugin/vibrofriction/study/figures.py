@@ -14,6 +14,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from ..params import LAWS, RigParameters
+from ..rigs.sweep import joint_convergence
 from . import overlays
 from .config import (EXPERIMENT_FIG13, EXPERIMENT_FIG14, MM_PER_S, N_PER_UM,
                      PROFILE_COULOMB_VIBRATION_VELOCITY_M_PER_S,
@@ -98,6 +99,7 @@ def compute_master(config: StudyConfig, base: RigParameters, laws: Sequence[str]
     for k, ((r, f), p, fds) in enumerate(zip(cases, points, statics)):
         law = f.law
         kappa = kappas[k % len(kappas)]
+        converged, remaining = joint_convergence(p, fds)
         out.append(MasterPoint(
             law=law, kappa=float(kappa),
             vibration_velocity_amplitude_m_per_s=r.vibration_velocity_amplitude_m_per_s,
@@ -109,9 +111,7 @@ def compute_master(config: StudyConfig, base: RigParameters, laws: Sequence[str]
             friction_min_N=p.summary.friction_min_N, friction_max_N=p.summary.friction_max_N,
             sign_change=p.summary.sign_change,
             kinematic_ratio=float(kin[law][k % len(kappas)]) if law in kin else math.nan,
-            converged=p.convergence.converged and fds.convergence.converged,
-            estimated_remaining_error=max(p.convergence.estimated_remaining_error,
-                                          fds.convergence.estimated_remaining_error),
+            converged=converged, estimated_remaining_error=remaining,
             window_start_s=p.summary.window_start_s, window_end_s=p.summary.window_end_s))
     return out
 

@@ -3,17 +3,19 @@
 Each case runs at its timestep (``StudyConfig.timestep``) until its mean drive force has
 converged (``steady.run_until_steady``: Hann-weighted windows of whole periods after the
 transient, within 0.1 %), so a number does not depend on which cases happened to run beside
-it. Cases are run together on MuJoCo's rollout threads, a few at a time.
+it. Cases are run by the package's one engine (``rigs.sweep.run_cases``): together on MuJoCo's
+rollout threads, a few at a time, or chunk by chunk on a Dask cluster.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Callable, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
 from ..params import FrictionParameters, RigParameters
-from ..rigs.steady import Convergence, run_until_steady
+from ..rigs.steady import SteadyRun
+from ..rigs.sweep import run_cases
 from ..summary import RunSummary
 from .config import STATIC_TIMESTEP_S, StudyConfig
 
@@ -23,39 +25,19 @@ Case = tuple[RigParameters, FrictionParameters]
 _CHUNK = 8
 
 
-@dataclass(frozen=True)
-class Point:
-    """Summary of one run to steady state, with what defines it and how it converged."""
-
-    rig: RigParameters
-    friction: FrictionParameters
-    timestep_s: float
-    summary: RunSummary
-    convergence: Convergence
-
-    @property
-    def mean_drive_force_N(self) -> float:
-        return self.summary.mean_drive_force_N
+# A study point is one case run to steady state: the engine's record (rigs.steady.SteadyRun).
+Point = SteadyRun
 
 
 def run_points(cases: Sequence[Case], config: StudyConfig, *,
-               timesteps: Sequence[float] | None = None,
-               progress: Progress | None = None) -> list[Point]:
-    """Summaries of ``cases`` (in order), each at its timestep (rule or ``timesteps``)."""
-    if not cases:
-        return []
+               timesteps: Sequence[float] | None = None, scheduler: Any = None,
+               chunk_size: int = _CHUNK, progress: Progress | None = None) -> list[Point]:
+    """Summaries of ``cases`` (in order), each at its timestep (the study's rule, or
+    ``timesteps``), run by the package's one engine (``rigs.sweep.run_cases``) a chunk at a
+    time, locally or on the Dask cluster ``scheduler``."""
     dts = list(timesteps) if timesteps is not None else [config.timestep(r) for r, _ in cases]
-    order = sorted(range(len(cases)), key=lambda i: -dts[i])  # coarse (fast) runs first
-    out: list[Point | None] = [None] * len(cases)
-    for start in range(0, len(order), _CHUNK):
-        idx = order[start:start + _CHUNK]
-        results = run_until_steady([cases[i] for i in idx], timesteps=[dts[i] for i in idx])
-        for i, r in zip(idx, results):
-            out[i] = Point(rig=r.rig, friction=r.friction, timestep_s=r.timestep_s,
-                           summary=r.summary, convergence=r.convergence)
-        if progress:
-            progress(min(start + _CHUNK, len(order)), len(cases))
-    return [p for p in out if p is not None]
+    return run_cases(cases, timesteps=dts, chunk_size=chunk_size, scheduler=scheduler,
+                     progress=progress)
 
 
 def static_cases(cases: Sequence[Case]) -> list[Case]:
@@ -63,8 +45,8 @@ def static_cases(cases: Sequence[Case]) -> list[Case]:
     return [(replace(r, vibration_velocity_amplitude_m_per_s=0.0), f) for r, f in cases]
 
 
-def static_points(cases: Sequence[Case], config: StudyConfig, *,
-                  progress: Progress | None = None) -> list[Point]:
+def static_points(cases: Sequence[Case], config: StudyConfig, *, scheduler: Any = None,
+                  chunk_size: int = _CHUNK, progress: Progress | None = None) -> list[Point]:
     """The run without vibration of each case (F_d-s and its convergence).
 
     Identical static rigs are run once.
@@ -78,7 +60,7 @@ def static_points(cases: Sequence[Case], config: StudyConfig, *,
             unique[key] = len(todo)
             todo.append((r, f))
     points = run_points(todo, config, timesteps=[STATIC_TIMESTEP_S] * len(todo),
-                        progress=progress)
+                        scheduler=scheduler, chunk_size=chunk_size, progress=progress)
     return [points[unique[(r, f)]] for r, f in statics]
 
 
@@ -143,7 +125,7 @@ def run_traces(cases: Sequence[Case], config: StudyConfig, *, periods: int,
     out: list[Trace] = []
     for k, ((r, f), fds) in enumerate(zip(cases, statics)):
         dt = config.timestep(r)
-        result = run_until_steady([(r, f)], timesteps=[dt], keep_series=True)[0]
+        result = run_cases([(r, f)], timesteps=[dt], keep_series=True)[0]
         run = result.run
         t = run.time_s
         period = run.period_s if run.period_s > 0 else 2.5e-4

@@ -14,22 +14,15 @@ import itertools
 import math
 import time
 from dataclasses import dataclass, replace
-from typing import Any, Callable, Sequence
+from typing import Any
 
 from ..errors import InputError
-from ..params import FrictionParameters, RigParameters
+from ..rigs.sweep import DaskUnavailable, dask_map, joint_convergence  # noqa: F401 (re-exported)
 from .config import STATIC_TIMESTEP_S, StudyConfig, friction_for, study_timestep
 from .runner import Case, Progress, run_points
 
 # Cases per task: large enough to keep rollout threads busy, small enough to spread work.
 DEFAULT_CHUNK_SIZE = 8
-
-
-CONNECT_TIMEOUT_S = 10  # waiting for a --scheduler to answer
-
-
-class DaskUnavailable(InputError):
-    """--scheduler was given but dask.distributed is not installed."""
 
 
 @dataclass(frozen=True)
@@ -53,15 +46,6 @@ class SweepGrid:
     def size(self) -> int:
         return (len(self.kappas) * len(self.vibration_frequencies_Hz)
                 * len(self.contact_stiffnesses_N_per_m) * len(self.normal_forces_N))
-
-
-@dataclass(frozen=True)
-class SweepTask:
-    """One chunk of work: cases with one timestep, each run to steady state (picklable)."""
-
-    indices: tuple[int, ...]
-    cases: tuple[Case, ...]
-    timestep_s: float
 
 
 @dataclass(frozen=True)
@@ -118,83 +102,6 @@ def grid_cases(grid: SweepGrid, config: StudyConfig) -> tuple[list[Case], list[C
     return cases, statics
 
 
-def make_tasks(cases: Sequence[Case], config: StudyConfig, *, chunk_size: int,
-               static: bool = False) -> list[SweepTask]:
-    """Chunks of cases sharing a timestep."""
-    dts = [STATIC_TIMESTEP_S if static else config.timestep(r) for r, _ in cases]
-    tasks: list[SweepTask] = []
-    for dt in sorted(set(dts), reverse=True):
-        idx = [i for i, d in enumerate(dts) if d == dt]
-        for start in range(0, len(idx), chunk_size):
-            part = tuple(idx[start:start + chunk_size])
-            tasks.append(SweepTask(indices=part, cases=tuple(cases[i] for i in part),
-                                   timestep_s=dt))
-    return tasks
-
-
-def run_task(task: SweepTask) -> list[tuple[int, float, float, float, float, bool, bool,
-                                             float, float]]:
-    """Run one chunk (also on a Dask worker): (index, dt, mean F_d, F_min, F_max, sign,
-    converged, estimated remaining error, mean F_F)."""
-    config = StudyConfig(timestep_s=task.timestep_s)
-    points = run_points(list(task.cases), config, timesteps=[task.timestep_s] * len(task.cases))
-    return [(i, p.timestep_s, p.summary.mean_drive_force_N, p.summary.friction_min_N,
-             p.summary.friction_max_N, p.summary.sign_change, p.convergence.converged,
-             p.convergence.estimated_remaining_error, p.summary.mean_friction_force_N)
-            for i, p in zip(task.indices, points)]
-
-
-def _run_local(tasks: Sequence[SweepTask], progress: Progress | None) -> list:
-    out = []
-    total = sum(len(t.indices) for t in tasks)
-    for task in tasks:
-        out += run_task(task)
-        if progress:
-            progress(len(out), total)
-    return out
-
-
-def _run_dask(tasks: Sequence[SweepTask], scheduler: Any, progress: Progress | None) -> list:
-    chunks = dask_map(run_task, tasks, scheduler, sizes=[len(t.indices) for t in tasks],
-                      progress=progress)
-    return [row for chunk in chunks for row in chunk]
-
-
-def dask_map(function: Callable[[Any], Any], items: Sequence[Any], scheduler: Any,
-             sizes: Sequence[int] | None = None, progress: Progress | None = None) -> list:
-    """``function`` over ``items`` on a Dask cluster (``scheduler``: an address or a
-    ``Client``), the results in the items' order; ``progress(done, total)`` counts ``sizes``
-    (default one per item) as items complete."""
-    try:
-        from dask.distributed import Client, as_completed
-    except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise DaskUnavailable(
-            "--scheduler needs dask.distributed; install the extra: pip install "
-            "'vibrofriction[dask]' (or pip install 'dask[distributed]')") from exc
-    sizes = list(sizes) if sizes is not None else [1] * len(items)
-    own_client = not isinstance(scheduler, Client)
-    try:
-        client = Client(scheduler, timeout=CONNECT_TIMEOUT_S) if own_client else scheduler
-    except (OSError, TimeoutError) as exc:
-        raise InputError(f"--scheduler {scheduler}: no Dask scheduler answers there ({exc}); "
-                         "start one (dask scheduler) or check the address") from None
-    try:
-        futures = client.map(function, list(items), pure=False)
-        position = {future.key: i for i, future in enumerate(futures)}
-        out: list[Any] = [None] * len(futures)
-        done = 0
-        for future in as_completed(futures):
-            i = position[future.key]
-            out[i] = future.result()
-            done += sizes[i]
-            if progress:
-                progress(done, sum(sizes))
-        return out
-    finally:
-        if own_client:
-            client.close()
-
-
 def run_sweep(grid: SweepGrid, config: StudyConfig, *, scheduler: Any = None,
               chunk_size: int = DEFAULT_CHUNK_SIZE, progress: Progress | None = None
               ) -> SweepResult:
@@ -202,37 +109,30 @@ def run_sweep(grid: SweepGrid, config: StudyConfig, *, scheduler: Any = None,
     if grid.size == 0:
         raise InputError("the sweep grid is empty")
     cases, statics = grid_cases(grid, config)
-    tasks = make_tasks(cases, config, chunk_size=chunk_size)
-    static_tasks = make_tasks(statics, config, chunk_size=chunk_size, static=True)
     start = time.perf_counter()
-    if scheduler is None:
-        raw = _run_local(tasks, progress)
-        raw_static = _run_local(static_tasks, None)
-        engine = "local rollout threads"
-    else:
-        raw = _run_dask(tasks, scheduler, progress)
-        raw_static = _run_dask(static_tasks, scheduler, None)
-        engine = f"dask ({scheduler if isinstance(scheduler, str) else 'client'})"
+    points = run_points(cases, config, scheduler=scheduler, chunk_size=chunk_size,
+                        progress=progress)
+    static_runs = run_points(statics, config, timesteps=[STATIC_TIMESTEP_S] * len(statics),
+                             scheduler=scheduler, chunk_size=chunk_size)
     wall = time.perf_counter() - start
-    by_index = {row[0]: row for row in raw}
-    static_force = {row[0]: row[2] for row in raw_static}
-    static_steady = {row[0]: (row[6], row[7]) for row in raw_static}
+    engine = ("local rollout threads" if scheduler is None else
+              f"dask ({scheduler if isinstance(scheduler, str) else 'client'})")
     per_static = len(grid.kappas)
     records = []
-    for i, (r, f) in enumerate(cases):
-        _, dt, mean, fmin, fmax, sign, converged, remaining, mean_friction = by_index[i]
-        static_converged, static_remaining = static_steady[i // per_static]
+    for i, ((r, f), p) in enumerate(zip(cases, points)):
+        static = static_runs[i // per_static]
+        converged, remaining = joint_convergence(p, static)
+        s = p.summary
         records.append(SweepRecord(
             kappa=r.kappa, vibration_velocity_amplitude_m_per_s=r.vibration_velocity_amplitude_m_per_s,
             vibration_frequency_Hz=r.vibration_frequency_Hz,
             contact_stiffness_N_per_m=f.contact_stiffness_N_per_m,
             normal_force_N=r.normal_force_N, friction_coefficient=f.friction_coefficient,
-            timestep_s=dt, mean_drive_force_N=mean,
-            static_drive_force_N=static_force[i // per_static],
-            mean_friction_force_N=mean_friction, friction_min_N=fmin,
-            friction_max_N=fmax, sign_change=bool(sign),
-            converged=bool(converged and static_converged),
-            estimated_remaining_error=float(max(remaining, static_remaining))))
+            timestep_s=p.timestep_s, mean_drive_force_N=s.mean_drive_force_N,
+            static_drive_force_N=static.mean_drive_force_N,
+            mean_friction_force_N=s.mean_friction_force_N, friction_min_N=s.friction_min_N,
+            friction_max_N=s.friction_max_N, sign_change=bool(s.sign_change),
+            converged=converged, estimated_remaining_error=remaining))
     return SweepResult(grid=grid, records=records, engine=engine, wall_s=wall)
 
 
@@ -273,6 +173,5 @@ def plot_sweep(result: SweepResult, path, *, title: str | None = None):
     return save_figure(fig, path)
 
 
-__all__ = ["SweepGrid", "SweepTask", "SweepRecord", "SweepResult", "grid_cases", "make_tasks",
-           "run_task", "run_sweep", "plot_sweep", "DaskUnavailable", "DEFAULT_CHUNK_SIZE",
-           "study_timestep"]
+__all__ = ["SweepGrid", "SweepRecord", "SweepResult", "grid_cases", "run_sweep", "plot_sweep",
+           "DaskUnavailable", "DEFAULT_CHUNK_SIZE", "study_timestep"]
