@@ -37,7 +37,7 @@ from ..rigs import rig as rig_module
 from ..data.datasets import Dataset, smoothed_derivative
 from ..errors import InputError
 from ..params import FrictionParameters, RigParameters
-from .replay import (SampleGrid, contact_at_rest, full_state, grid_steps, noise_sd,
+from .replay import (SampleGrid, contact_at_rest, grid_steps, noise_sd,
                      speed_quantiles, substeps_of_record, uniform_times)
 from ..vocabulary import FRICTION_TERMS
 
@@ -366,7 +366,7 @@ class MachineReplay(SampleGrid):
             data.plugin_state[adr:adr + 6] = [0.0, 0.0, q0 - v0 * T, q0 - 1.5 * v0 * T,
                                               0.0, 1.0]
         contact_at_rest(model, data, friction, self.initial_friction_N, self.rig.normal_force_N)
-        return full_state(model, data)
+        return rig_module.full_state(model, data)
 
     def outputs(self, model: mujoco.MjModel, rig: RigParameters, sensordata: np.ndarray,
                 names: Sequence[str]) -> dict[str, np.ndarray]:

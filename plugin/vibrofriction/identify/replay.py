@@ -205,13 +205,6 @@ def slider_state(model: mujoco.MjModel, states: np.ndarray) -> np.ndarray:
     return np.stack([x, v, z], axis=-1)
 
 
-def full_state(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
-    kind = mujoco.mjtState.mjSTATE_FULLPHYSICS
-    state = np.empty(mujoco.mj_stateSize(model, kind))
-    mujoco.mj_getState(model, data, state, kind)
-    return state
-
-
 @dataclass(frozen=True, eq=False)
 class RigReplay(SampleGrid):
     """A record set up for replay in the rig: inputs as controls, outputs as channels."""
@@ -382,7 +375,7 @@ class RigReplay(SampleGrid):
                   self.rig.drive_velocity_m_per_s)
         if friction.law != "coulomb" and model.na:
             data.act[model.actuator("friction").actadr[0]] = z
-        return full_state(model, data)
+        return rig_module.full_state(model, data)
 
     def halved(self) -> "RigReplay":
         """The same replay at half the timestep: the step ends in between by linear
@@ -453,7 +446,7 @@ class RigReplay(SampleGrid):
         normal = self.control[0, FRICTION_CTRL] if self.normal_force_from_record else \
             self.rig.normal_force_N
         contact_at_rest(model, data, friction, self.initial_friction_N, normal)
-        return full_state(model, data)
+        return rig_module.full_state(model, data)
 
 
 class Replayer:

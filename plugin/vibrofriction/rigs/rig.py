@@ -283,15 +283,21 @@ def runs_from_sensordata(model: mujoco.MjModel, rig: RigParameters,
     )
 
 
-def initial_state(model: mujoco.MjModel, data: mujoco.MjData | None = None) -> np.ndarray:
-    """The model's reset state (mjSTATE_FULLPHYSICS), e.g. for mujoco.rollout; `data` is
-    reset and reused when given."""
-    data = data if data is not None else mujoco.MjData(model)
-    mujoco.mj_resetData(model, data)
+def full_state(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+    """``data``'s state as mujoco.rollout starts from it (mjSTATE_FULLPHYSICS: time, qpos,
+    qvel, act, plugin state...)."""
     kind = mujoco.mjtState.mjSTATE_FULLPHYSICS
     state = np.empty(mujoco.mj_stateSize(model, kind))
     mujoco.mj_getState(model, data, state, kind)
     return state
+
+
+def initial_state(model: mujoco.MjModel, data: mujoco.MjData | None = None) -> np.ndarray:
+    """The model's reset state (``full_state``), e.g. for mujoco.rollout; `data` is reset and
+    reused when given."""
+    data = data if data is not None else mujoco.MjData(model)
+    mujoco.mj_resetData(model, data)
+    return full_state(model, data)
 
 
 def simulate(rig: RigParameters, friction: FrictionParameters, *,

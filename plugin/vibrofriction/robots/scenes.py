@@ -33,7 +33,7 @@ from .averaged import AveragedTable, Vibration, build_table
 from .feeder_map import FeederMap, build_map
 from ..oracle.feeder_reference import Feeder
 from ..params import FrictionParameters, ParameterError
-from ..rigs.rig import MJCF_DIR, sensor_columns
+from ..rigs.rig import MJCF_DIR, full_state, sensor_columns
 
 ROBOTS_DIR = MJCF_DIR / "robots"
 GRAVITY_M_PER_S2 = 9.81
@@ -298,10 +298,7 @@ def initial_state(model: mujoco.MjModel, ctrl0: np.ndarray | None = None,
     if ctrl0 is not None:
         data.ctrl[:] = ctrl0
     mujoco.mj_forward(model, data)
-    kind = mujoco.mjtState.mjSTATE_FULLPHYSICS
-    state = np.empty(mujoco.mj_stateSize(model, kind))
-    mujoco.mj_getState(model, data, state, kind)
-    return state
+    return full_state(model, data)
 
 
 @dataclass(frozen=True)
