@@ -285,9 +285,10 @@ def test_simulation_on_a_record_with_no_rig_is_one_clear_error(tmp_path, capsys)
 
 
 def test_vibration_band_keeps_the_vibration_and_drops_the_noise() -> None:
-    """A shaker's velocity (4 kHz, a 20-period ramp) measured with white noise: the band keeps
-    the vibration to 1e-3 of its amplitude (measured 5e-5: the cubic envelope's knots go where
-    the ramp is) and leaves a third of the noise or less (measured 0.25), ends included."""
+    """A shaker's velocity (4 kHz, a 20-period ramp) measured with white noise: the band leaves
+    a third of the noise or less (measured 0.25), ends included; noise-free, it keeps the
+    vibration to 1e-3 of its amplitude (measured 3e-5, where the samples a fit misses by more
+    than 6 sd of its tiny residual are returned as measured)."""
     from vibrofriction.identify.replay import vibration_band
     from vibrofriction.oracle.reference import support_motion
     dt, frequency = 1e-5, 4000.0
@@ -332,9 +333,37 @@ def test_a_vibration_switched_on_at_once_keeps_its_first_sample_and_does_not_rin
     velocity[0] = 0.0
     noise = 2e-5 * np.random.default_rng(3).standard_normal(len(t))
     kept = vibration_band(velocity + noise, dt, frequency)
-    assert kept[0] == velocity[0] + noise[0]
+    # (as measured, less the record's slow part: within a fraction of the noise here)
+    assert abs(kept[0] - (velocity[0] + noise[0])) < 0.5 * np.std(noise)
     assert np.std(kept[1:] - velocity[1:]) < 0.1 * np.std(noise)
     assert np.max(np.abs(kept[1:] - velocity[1:])) < 0.01 * amplitude
+
+
+def test_an_offset_a_glitch_and_a_switch_off_leave_the_vibration_as_it_was() -> None:
+    """The review's cases (0.4 s at 100 kHz, 20 um/s of noise): a 2 % amplitude modulation
+    at 5 Hz is kept under an offset of 5 noise sd (before the slow part was taken out, the
+    offset counted as noise and the modulation was fitted as steady: 15 um/s off); a lone
+    5 mm/s glitch takes the fit's value (kept as measured, it moved the table by 50 nm) and
+    leaves a still support still; a vibration switched off mid-record stays within 4 noise sd
+    (a band filter: 0.5 mm/s near the switch)."""
+    from vibrofriction.identify.replay import noise_only_vibration, vibration_band
+    dt, frequency = 1e-5, 4000.0
+    t = dt * np.arange(40000)
+    noise = 2e-5 * np.random.default_rng(5).standard_normal(len(t))
+    carrier = np.cos(2 * math.pi * frequency * t)
+    modulated = 1.5e-3 * (1 + 0.02 * np.sin(2 * math.pi * 5 * t)) * carrier
+    error = vibration_band(modulated + 1e-4 + noise, dt, frequency) - modulated
+    assert np.std(error) < 0.1 * np.std(noise)  # measured 0.04
+    glitched = 1.5e-3 * carrier + noise
+    glitched[20000] += 5e-3
+    error = vibration_band(glitched, dt, frequency) - 1.5e-3 * carrier
+    assert abs(error[20000]) < 3 * np.std(noise) and abs(np.sum(error) * dt) < 1e-9
+    still = noise.copy()
+    still[20000] += 5e-3
+    assert noise_only_vibration(still, dt, frequency)
+    switched = 1.5e-3 * carrier * (t < 0.2113)
+    error = vibration_band(switched + noise, dt, frequency) - switched
+    assert np.max(np.abs(error)) < 4 * np.std(noise)  # measured 3.0 sd
 
 
 def test_replay_refuses_an_undersampled_vibration_and_a_foreign_timestep() -> None:
@@ -514,14 +543,15 @@ def test_segments_started_from_the_true_states_join_into_the_whole_run() -> None
     assert np.all(np.abs(ends - truth[np.array(steps) - 1]) < 1e-6 * span), ends
 
 
-def test_a_stick_slip_record_round_trips_through_multiple_shooting() -> None:
+def test_a_stick_slip_record_round_trips_through_multiple_shooting(monkeypatch) -> None:
+    from vibrofriction.identify import simulation
+    # (the restart shape (1.5, 3) is this record's own Stribeck curve: from it a restart
+    # comes back exact whatever multiple shooting did; the two shapes before it are kept)
+    monkeypatch.setattr(simulation, "_STRIBECK_RESTARTS", simulation._STRIBECK_RESTARTS[:2])
     result = identify_by_simulation(_stick_slip_record(0.1), law="lugre",
                                     declared=("stribeck",))
     assert result.settings["stick_phases"] >= 4
-    # (the Stribeck restarts start at the best fit so far, multiple shooting's: from the
-    # shape (1.5, 3), this record's ratio, one ends on the same values 1e-10 lower in RSS)
-    assert result.settings["baseline_start"] in ("multiple shooting", "a segmented replay",
-                                                 "a Stribeck restart")
+    assert result.settings["baseline_start"] in ("multiple shooting", "a segmented replay")
     assert result.selected == []
     for name in LAW_FIELDS["lugre"]:
         assert result.final.values[name] == pytest.approx(getattr(STICK_SLIP, name),

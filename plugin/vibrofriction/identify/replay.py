@@ -43,7 +43,7 @@ import numpy as np
 from mujoco import rollout as mj_rollout
 from scipy.interpolate import BSpline, make_interp_spline
 from scipy.signal import butter, sosfiltfilt
-from scipy.sparse import hstack, identity
+from scipy.sparse import csc_matrix, hstack, identity
 from scipy.sparse.linalg import spsolve
 
 from ..rigs import rig as rig_module
@@ -642,8 +642,8 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
         if vibrating:
             # A displacement sensor's noise passes through a stiff contact as friction noise
             # (1 nm at 60 N/um: 0.06 N): kept to the vibration band and the slow motion.
-            # (a straight line out first: the band's end extensions are harmonics only, and
-            # an offset or a drift would enter them as a step)
+            # (a straight line out first: the slow part is a low-pass, whose ends a large
+            # offset or drift would bend)
             trend = np.polyval(np.polyfit(t - t[0], support_position, 1), t - t[0])
             band = vibration_band(support_position - trend, sample_dt, frequency)
             smooth = trend + band + slow_part(support_position - trend - band, sample_dt,
@@ -866,7 +866,7 @@ def support_displacement(t: np.ndarray, velocity: np.ndarray, step_ends: np.ndar
 
 
 _BAND_CACHE: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}  # key -> (signal, band)
-_BAND_CACHE_SIZE = 8
+_BAND_CACHE_SIZE = 4
 
 
 def vibration_band(signal: np.ndarray, dt: float, frequency_Hz: float) -> np.ndarray:
@@ -885,104 +885,135 @@ def vibration_band(signal: np.ndarray, dt: float, frequency_Hz: float) -> np.nda
 def _vibration_band(signal: np.ndarray, dt: float, frequency_Hz: float) -> np.ndarray:
     """The part of a vibrating support's measured motion at the vibration frequency and its
     harmonics (up to ``VIBRATION_HARMONICS``, below 0.8 of the Nyquist frequency), fitted by
-    least squares with each harmonic's complex envelope a cubic spline in time.
-
-    A steady vibration (constant amplitudes and phases fit as well as the finest spline, up to
-    the noise) is fitted as one. Otherwise the spline's knots lie on period boundaries, as few
-    as the record needs: starting from no interior knot, every span whose misfit exceeds that of the finest spline (a knot at every
-    period) by more than the sensor's noise explains (``SPLIT_SIGMAS`` above the chi-square
-    mean of the finest spline's extra values there) is split at its middle period, until none
-    is. A steady shaker is then fitted with a handful of values per harmonic (the vibrometer's
-    noise averaged over the whole record; a band filter kept the noise within its bandwidth,
-    and the slider, whose mean speed follows the vibration's amplitude, integrated that
-    amplitude noise into its position: 1.4 nm rms at 4 kHz, 1.5 mm/s and 20 um/s of noise,
-    against 0.5 nm now); a switch-on, a ramp or a fading amplitude get knots where they happen.
-    Drops the sensor's broadband noise and any slow drift."""
+    least squares with each harmonic's complex envelope a cubic spline in time
+    (``_harmonic_fit``), after the signal's slow part (an offset, a drift: the first fit's
+    residual low-passed at ``ENVELOPE_BANDWIDTH`` of the frequency) is taken out: left in, it
+    counted as noise and let a real amplitude change pass for steady."""
     x = np.asarray(signal, dtype=float)
+    first, fitted = _harmonic_fit(x, dt, frequency_Hz)
+    # (the samples the fit left out do not enter the slow part: a jump or a glitch would)
+    slow = slow_part(np.where(fitted, x - first, 0.0), dt, frequency_Hz)
+    return _harmonic_fit(x - slow, dt, frequency_Hz)[0]
+
+
+def _harmonic_fit(x: np.ndarray, dt: float, frequency_Hz: float
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """``_vibration_band``'s fit of ``x`` (whose slow part is taken out), and which samples
+    it fitted.
+
+    A steady vibration (constant amplitudes and phases fit as well as the finest spline, a knot
+    every period, up to the noise) is fitted as one: a handful of values per harmonic, the
+    vibrometer's noise averaged over the whole record. (A band filter kept the noise within
+    its bandwidth, and the slider, whose mean speed follows the vibration's amplitude,
+    integrated that amplitude noise into its position: 1.4 nm rms at 4 kHz, 1.5 mm/s and
+    20 um/s of noise, against 0.5 nm now.) Otherwise the knots lie on period boundaries, as
+    few as the record needs: starting from no interior knot, every span whose misfit exceeds
+    the finest spline's by more than the noise explains (``SPLIT_SIGMAS`` above the
+    chi-square mean of the finest spline's extra values there) is split at its middle period,
+    until none is: a switch-on, a ramp or a fading amplitude get knots where they happen.
+
+    Samples the finest spline misses by more than ``OUTLIER_SIGMAS`` noise sd are left out of
+    the fits, which would ring around them. Where they are the record's first or last
+    samples or come in runs (an abrupt switch: a simulator's record starts with the support at
+    rest and its vibration at full amplitude one sample later) they are kept as measured; a
+    lone one (a sensor's glitch) takes the fit's value."""
     n = len(x)
     harmonics = [h for h in range(1, VIBRATION_HARMONICS + 1)
                  if h * frequency_Hz <= 0.8 * 0.5 / dt]
     phase = 2 * math.pi * frequency_Hz * dt * np.arange(n)
     carriers = np.column_stack([f(h * phase) for h in harmonics for f in (np.cos, np.sin)])
+    width = carriers.shape[1]
     cycles = frequency_Hz * dt * np.arange(n)  # time in periods
     # (the last period, if shorter than one, joins the one before)
     periods = max(1, int(math.floor(cycles[-1] + 1e-9)))
     finest = list(range(periods + 1))
-    # Samples the finest spline misses by more than OUTLIER_SIGMAS noise sd (an abrupt
-    # switch: a simulator's record starts with the support at rest, its vibration at full
-    # amplitude one sample later) are left out of the fits, which would ring around them, and
-    # kept as measured.
+    values = periods + ENVELOPE_DEGREE  # spline values of each envelope at the finest knots
+
+    def finest_fit(kept: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        band, rss = _envelope_fit(x, carriers, cycles, finest, kept)
+        dof = max(int(np.count_nonzero(kept)) - width * values, 1)
+        return band, rss, float(np.sum(rss)) / dof
+
     kept = np.ones(n, dtype=bool)
+    fine = finest_fit(kept)
     for _ in range(OUTLIER_ROUNDS):
-        finest_fit, finest_rss = _envelope_fit(x, carriers, cycles, finest, kept)
-        dof_all = max(int(np.count_nonzero(kept)) -
-                      carriers.shape[1] * (periods + ENVELOPE_DEGREE), 1)
-        noise_variance = float(np.sum(finest_rss)) / dof_all
-        # (judged afresh against each fit: the first one rings around the jump)
-        within = np.abs(x - finest_fit) <= OUTLIER_SIGMAS * math.sqrt(noise_variance)
+        # (judged afresh against each fit: the first one rings around a jump)
+        within = np.abs(x - fine[0]) <= OUTLIER_SIGMAS * math.sqrt(fine[2])
         if np.array_equal(within, kept):
             break
         kept = within
+        fine = finest_fit(kept)
+    else:  # (not settled: what stays left out is what every round left out)
+        kept &= np.abs(x - fine[0]) <= OUTLIER_SIGMAS * math.sqrt(fine[2])
+        fine = finest_fit(kept)
+    _, finest_rss, noise_variance = fine
+    left_out = ~kept
+    joined = np.zeros(n, dtype=bool)  # left out with a left-out neighbour, or at an end
+    joined[[0, -1]] = True
+    joined[1:] |= left_out[:-1]
+    joined[:-1] |= left_out[1:]
+    as_measured = left_out & joined
     # A steady vibration: one amplitude and phase per harmonic, if the finest spline does not
     # fit better than noise would let it (a cubic envelope over the whole record moved the
     # fundamental's amplitude by up to 9e-4 of itself near the ends, where a constant one is
     # 2e-4 off throughout; the slider's predicted position 1.4 nm rms off against 0.5 nm).
-    width = carriers.shape[1]
-    steady, *_ = np.linalg.lstsq(carriers[kept], x[kept], rcond=None)
-    steady_rss = float(np.sum((x[kept] - carriers[kept] @ steady) ** 2))
-    dof = width * (periods + ENVELOPE_DEGREE - 1)
-    if steady_rss - float(np.sum(finest_rss)) <= noise_variance * (
+    band, steady_rss = _envelope_fit(x, carriers, cycles, None, kept)
+    dof = width * (values - 1)
+    if float(np.sum(steady_rss)) - float(np.sum(finest_rss)) <= noise_variance * (
             dof + SPLIT_SIGMAS * math.sqrt(2 * dof)):
-        return np.where(kept, carriers @ steady, x)
+        return np.where(as_measured, x, band), kept
     knots = [0, periods]  # period indices where the envelope's knots lie
-    fitted = finest_fit
     for _ in range(MAX_ENVELOPE_ROUNDS):
-        fitted, span_rss = _envelope_fit(x, carriers, cycles, knots, kept)
+        band, span_rss = _envelope_fit(x, carriers, cycles, knots, kept)
         split = []
         for j, (a, b) in enumerate(zip(knots[:-1], knots[1:])):
             dof = width * (b - a - 1)
-            if b - a >= 2 and span_rss[j] - float(np.sum(finest_rss[a:b])) > noise_variance * (
-                    dof + SPLIT_SIGMAS * math.sqrt(2 * dof)):
+            excess = span_rss[j] - float(np.sum(finest_rss[a:b]))
+            if b - a >= 2 and excess > noise_variance * (dof + SPLIT_SIGMAS * math.sqrt(2 * dof)):
                 split.append((a + b) // 2)
         if not split:
             break
         knots = sorted(knots + split)
-    return np.where(kept, fitted, x)
+    return np.where(as_measured, x, band), kept
 
 
 def _envelope_fit(x: np.ndarray, carriers: np.ndarray, cycles: np.ndarray,
-                  knots: Sequence[int], kept: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                  knots: Sequence[int] | None, kept: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
     """(the fit, the residual sum of squares of the ``kept`` samples in each span between
     knots) of ``x``'s ``kept`` samples by the carriers times envelopes that are cubic splines
     with knots at ``knots`` (period indices; ``cycles`` each sample's time in periods; the
-    last knot stands for the record's end)."""
-    ends = np.array(knots, dtype=float)
+    last knot stands for the record's end; None: constant envelopes, one span)."""
+    ends = np.array([0, cycles[-1]] if knots is None else knots, dtype=float)
     ends[-1] = cycles[-1]
-    k = ENVELOPE_DEGREE
-    spline_knots = np.concatenate([[ends[0]] * k, ends, [ends[-1]] * k])
-    basis = BSpline.design_matrix(cycles, spline_knots, k).tocsc()
-    design = hstack([basis.multiply(carriers[:, [c]]) for c in range(carriers.shape[1])],
-                    format="csc")
+    if knots is None:
+        envelope = csc_matrix(np.ones((len(x), 1)))
+    else:
+        k = ENVELOPE_DEGREE
+        envelope = BSpline.design_matrix(
+            cycles, np.concatenate([[ends[0]] * k, ends, [ends[-1]] * k]), k).tocsc()
+    design = hstack([envelope.multiply(carriers[:, [c]]) for c in range(carriers.shape[1])],
+                    format="csr")
     used = design[np.flatnonzero(kept)]
     normal = (used.T @ used).tocsc()
     # (a tiny ridge: a spline value whose samples were all left out stays 0, not singular)
     normal = normal + 1e-12 * float(normal.diagonal().mean()) * identity(normal.shape[0],
                                                                           format="csc")
     fitted = design @ spsolve(normal, used.T @ x[kept])
-    span = np.clip(np.searchsorted(ends, cycles, side="right") - 1, 0, len(knots) - 2)
+    span = np.clip(np.searchsorted(ends, cycles, side="right") - 1, 0, len(ends) - 2)
     return fitted, np.bincount(span, np.where(kept, x - fitted, 0.0) ** 2,
-                               minlength=len(knots) - 1)
+                               minlength=len(ends) - 1)
 
 
 # A support vibrates when its vibration band's rms is above this many times the rms the
-# velocity's broadband noise alone leaves in the widest band.
+# velocity's broadband noise alone leaves in a band f/4 either side of each harmonic.
 VIBRATION_ABOVE_NOISE = 3.0
 
 
 def noise_only_vibration(velocity: np.ndarray, dt: float, frequency_Hz: float) -> bool:
     """Whether a measured support velocity holds no vibration above its sensor's noise: the
-    rms of ``vibration_band`` below ``VIBRATION_ABOVE_NOISE`` times the noise's share of the
-    widest band (f/4 either side of each harmonic)."""
+    rms of ``vibration_band`` below ``VIBRATION_ABOVE_NOISE`` times the noise's share of a
+    band ``ENVELOPE_BANDWIDTH`` of the frequency either side of each harmonic."""
     band = vibration_band(velocity, dt, frequency_Hz)
     harmonics = sum(1 for h in range(1, VIBRATION_HARMONICS + 1)
                     if h * frequency_Hz <= 0.8 * 0.5 / dt)

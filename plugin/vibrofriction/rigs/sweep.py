@@ -58,7 +58,7 @@ def run_cases(cases: Sequence[Case], *, timestep_s: float | None = None,
     if duration_s is not None:  # one timestep and one averaging window for every case
         if timestep_s is None:
             timestep_s = min(rig_module.recommended_timestep(r) for r, _ in cases)
-        if scheduler is not None and settle_time_s is None:
+        if settle_time_s is None:  # (so that no chunk takes its own)
             settings["settle_time_s"] = max(rig_module.default_times(r, f)[1] for r, f in cases)
         dts = [timestep_s] * len(cases)
     elif timesteps is not None:
