@@ -77,6 +77,10 @@ ENVELOPE_BANDWIDTH = 0.25
 SPLIT_SIGMAS = 4.0
 OUTLIER_SIGMAS = 6.0  # ``vibration_band`` keeps a sample as measured beyond this
 OUTLIER_ROUNDS = 3
+# ``vibration_band`` fits again without the slow part only where its rms is above this many
+# times what the noise alone leaves in it (a second fit costs a second for a 0.4 s, 100 kHz
+# record, and moving the input by the noise's slow part changes a fit's path, not its result)
+SLOW_PART_ABOVE_NOISE = 3.0
 ENVELOPE_DEGREE = 3  # cubic: a 20-period amplitude ramp within 1e-4 of its amplitude
 MAX_ENVELOPE_ROUNDS = 16
 _CASES_PER_ROLLOUT = 16
@@ -890,16 +894,20 @@ def _vibration_band(signal: np.ndarray, dt: float, frequency_Hz: float) -> np.nd
     residual low-passed at ``ENVELOPE_BANDWIDTH`` of the frequency) is taken out: left in, it
     counted as noise and let a real amplitude change pass for steady."""
     x = np.asarray(signal, dtype=float)
-    first, fitted = _harmonic_fit(x, dt, frequency_Hz)
+    first, fitted, noise_sd = _harmonic_fit(x, dt, frequency_Hz)
     # (the samples the fit left out do not enter the slow part: a jump or a glitch would)
     slow = slow_part(np.where(fitted, x - first, 0.0), dt, frequency_Hz)
+    # (white noise alone leaves sqrt(2 fc dt) of its sd below the low-pass's cutoff fc)
+    noise_alone = noise_sd * math.sqrt(2 * ENVELOPE_BANDWIDTH * frequency_Hz * dt)
+    if math.sqrt(float(np.mean(slow ** 2))) <= SLOW_PART_ABOVE_NOISE * noise_alone:
+        return first
     return _harmonic_fit(x - slow, dt, frequency_Hz)[0]
 
 
 def _harmonic_fit(x: np.ndarray, dt: float, frequency_Hz: float
-                  ) -> tuple[np.ndarray, np.ndarray]:
-    """``_vibration_band``'s fit of ``x`` (whose slow part is taken out), and which samples
-    it fitted.
+                  ) -> tuple[np.ndarray, np.ndarray, float]:
+    """``_vibration_band``'s fit of ``x`` (whose slow part is taken out), which samples it
+    fitted, and the noise sd of its residual.
 
     A steady vibration (constant amplitudes and phases fit as well as the finest spline, a knot
     every period, up to the noise) is fitted as one: a handful of values per harmonic, the
@@ -961,7 +969,7 @@ def _harmonic_fit(x: np.ndarray, dt: float, frequency_Hz: float
     dof = width * (values - 1)
     if float(np.sum(steady_rss)) - float(np.sum(finest_rss)) <= noise_variance * (
             dof + SPLIT_SIGMAS * math.sqrt(2 * dof)):
-        return np.where(as_measured, x, band), kept
+        return np.where(as_measured, x, band), kept, math.sqrt(noise_variance)
     knots = [0, periods]  # period indices where the envelope's knots lie
     for _ in range(MAX_ENVELOPE_ROUNDS):
         band, span_rss = _envelope_fit(x, carriers, cycles, knots, kept)
@@ -974,7 +982,7 @@ def _harmonic_fit(x: np.ndarray, dt: float, frequency_Hz: float
         if not split:
             break
         knots = sorted(knots + split)
-    return np.where(as_measured, x, band), kept
+    return np.where(as_measured, x, band), kept, math.sqrt(noise_variance)
 
 
 def _envelope_fit(x: np.ndarray, carriers: np.ndarray, cycles: np.ndarray,
