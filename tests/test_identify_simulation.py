@@ -333,8 +333,7 @@ def test_a_vibration_switched_on_at_once_keeps_its_first_sample_and_does_not_rin
     velocity[0] = 0.0
     noise = 2e-5 * np.random.default_rng(3).standard_normal(len(t))
     kept = vibration_band(velocity + noise, dt, frequency)
-    # (as measured, less the record's slow part: within a fraction of the noise here)
-    assert abs(kept[0] - (velocity[0] + noise[0])) < 0.5 * np.std(noise)
+    assert kept[0] == velocity[0] + noise[0]  # (no slow part above the noise's here)
     assert np.std(kept[1:] - velocity[1:]) < 0.1 * np.std(noise)
     assert np.max(np.abs(kept[1:] - velocity[1:])) < 0.01 * amplitude
 
@@ -344,8 +343,9 @@ def test_an_offset_a_glitch_and_a_switch_off_leave_the_vibration_as_it_was() -> 
     at 5 Hz is kept under an offset of 5 noise sd (before the slow part was taken out, the
     offset counted as noise and the modulation was fitted as steady: 15 um/s off); a lone
     5 mm/s glitch takes the fit's value (kept as measured, it moved the table by 50 nm) and
-    leaves a still support still; a vibration switched off mid-record stays within 4 noise sd
-    (a band filter: 0.5 mm/s near the switch)."""
+    leaves a still support still; a vibration switched off mid-record stays within the
+    outlier bound and the noise, 6 + 3 noise sd (measured 3.0 here, up to 4.8 at other switch
+    times; a band filter: 0.5 mm/s near the switch)."""
     from vibrofriction.identify.replay import noise_only_vibration, vibration_band
     dt, frequency = 1e-5, 4000.0
     t = dt * np.arange(40000)
@@ -358,12 +358,17 @@ def test_an_offset_a_glitch_and_a_switch_off_leave_the_vibration_as_it_was() -> 
     glitched[20000] += 5e-3
     error = vibration_band(glitched, dt, frequency) - 1.5e-3 * carrier
     assert abs(error[20000]) < 3 * np.std(noise) and abs(np.sum(error) * dt) < 1e-9
+    for near_an_end in (1, 2, len(t) - 3):  # (the review's: kept as measured, 250 sd off)
+        glitched = 1.5e-3 * carrier + noise
+        glitched[near_an_end] += 5e-3
+        error = vibration_band(glitched, dt, frequency) - 1.5e-3 * carrier
+        assert abs(error[near_an_end]) < 3 * np.std(noise), near_an_end
     still = noise.copy()
     still[20000] += 5e-3
     assert noise_only_vibration(still, dt, frequency)
     switched = 1.5e-3 * carrier * (t < 0.2113)
     error = vibration_band(switched + noise, dt, frequency) - switched
-    assert np.max(np.abs(error)) < 4 * np.std(noise)  # measured 3.0 sd
+    assert np.max(np.abs(error)) < 9 * np.std(noise)
 
 
 def test_replay_refuses_an_undersampled_vibration_and_a_foreign_timestep() -> None:

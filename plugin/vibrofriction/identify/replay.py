@@ -894,11 +894,15 @@ def _vibration_band(signal: np.ndarray, dt: float, frequency_Hz: float) -> np.nd
     residual low-passed at ``ENVELOPE_BANDWIDTH`` of the frequency) is taken out: left in, it
     counted as noise and let a real amplitude change pass for steady."""
     x = np.asarray(signal, dtype=float)
-    first, fitted, noise_sd = _harmonic_fit(x, dt, frequency_Hz)
-    # (the samples the fit left out do not enter the slow part: a jump or a glitch would)
+    first, fitted, _ = _harmonic_fit(x, dt, frequency_Hz)
+    # (the samples the fit left out do not enter the slow part: a jump or a glitch would;
+    # ``slow_part``'s filter needs more than 15 samples: MIN_SAMPLES)
     slow = slow_part(np.where(fitted, x - first, 0.0), dt, frequency_Hz)
-    # (white noise alone leaves sqrt(2 fc dt) of its sd below the low-pass's cutoff fc)
-    noise_alone = noise_sd * math.sqrt(2 * ENVELOPE_BANDWIDTH * frequency_Hz * dt)
+    # White noise alone leaves sqrt(2 fc dt) of its sd below the low-pass's cutoff fc. (Its sd
+    # from third differences: the fit's residual holds the slow part too, which would count
+    # as noise and hide itself at a few samples a period.)
+    noise_alone = white_noise_sd(x - first) * math.sqrt(
+        2 * ENVELOPE_BANDWIDTH * frequency_Hz * dt)
     if math.sqrt(float(np.mean(slow ** 2))) <= SLOW_PART_ABOVE_NOISE * noise_alone:
         return first
     return _harmonic_fit(x - slow, dt, frequency_Hz)[0]
@@ -921,9 +925,10 @@ def _harmonic_fit(x: np.ndarray, dt: float, frequency_Hz: float
     until none is: a switch-on, a ramp or a fading amplitude get knots where they happen.
 
     Samples the finest spline misses by more than ``OUTLIER_SIGMAS`` noise sd are left out of
-    the fits, which would ring around them. Where they are the record's first or last
-    samples or come in runs (an abrupt switch: a simulator's record starts with the support at
-    rest and its vibration at full amplitude one sample later) they are kept as measured; a
+    the fits, which would ring around them. Those the final fit misses too are kept as
+    measured (less the slow part, on ``_vibration_band``'s second pass) where they are the
+    record's first or last samples or come in runs (an abrupt switch: a simulator's record
+    starts with the support at rest and its vibration at full amplitude one sample later); a
     lone one (a sensor's glitch) takes the fit's value."""
     n = len(x)
     harmonics = [h for h in range(1, VIBRATION_HARMONICS + 1)
@@ -951,16 +956,22 @@ def _harmonic_fit(x: np.ndarray, dt: float, frequency_Hz: float
             break
         kept = within
         fine = finest_fit(kept)
-    else:  # (not settled: what stays left out is what every round left out)
+    else:  # (not settled: left out what either of the last two rounds left out)
         kept &= np.abs(x - fine[0]) <= OUTLIER_SIGMAS * math.sqrt(fine[2])
         fine = finest_fit(kept)
     _, finest_rss, noise_variance = fine
-    left_out = ~kept
-    joined = np.zeros(n, dtype=bool)  # left out with a left-out neighbour, or at an end
-    joined[[0, -1]] = True
-    joined[1:] |= left_out[:-1]
-    joined[:-1] |= left_out[1:]
-    as_measured = left_out & joined
+
+    def judged(band: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        # Left out for good: what the final fit misses too (the finest spline's ends rest on
+        # a few samples, and a glitch near an end took its ringing neighbours out with it);
+        # kept as measured where at an end or in a run, else the fit's value.
+        off = ~kept & (np.abs(x - band) > OUTLIER_SIGMAS * math.sqrt(noise_variance))
+        joined = np.zeros(n, dtype=bool)  # with a left-out neighbour, or at an end
+        joined[[0, -1]] = True
+        joined[1:] |= off[:-1]
+        joined[:-1] |= off[1:]
+        return np.where(off & joined, x, band), ~off, math.sqrt(noise_variance)
+
     # A steady vibration: one amplitude and phase per harmonic, if the finest spline does not
     # fit better than noise would let it (a cubic envelope over the whole record moved the
     # fundamental's amplitude by up to 9e-4 of itself near the ends, where a constant one is
@@ -969,7 +980,7 @@ def _harmonic_fit(x: np.ndarray, dt: float, frequency_Hz: float
     dof = width * (values - 1)
     if float(np.sum(steady_rss)) - float(np.sum(finest_rss)) <= noise_variance * (
             dof + SPLIT_SIGMAS * math.sqrt(2 * dof)):
-        return np.where(as_measured, x, band), kept, math.sqrt(noise_variance)
+        return judged(band)
     knots = [0, periods]  # period indices where the envelope's knots lie
     for _ in range(MAX_ENVELOPE_ROUNDS):
         band, span_rss = _envelope_fit(x, carriers, cycles, knots, kept)
@@ -982,7 +993,7 @@ def _harmonic_fit(x: np.ndarray, dt: float, frequency_Hz: float
         if not split:
             break
         knots = sorted(knots + split)
-    return np.where(as_measured, x, band), kept, math.sqrt(noise_variance)
+    return judged(band)
 
 
 def _envelope_fit(x: np.ndarray, carriers: np.ndarray, cycles: np.ndarray,
