@@ -61,3 +61,21 @@ def test_the_metadata_provider_pins_the_build_environments_mujoco():
         provider.dynamic_metadata("version", {})
     with pytest.raises(RuntimeError, match="unknown settings"):
         provider.dynamic_metadata("dependencies", {"require": []})
+
+
+def test_the_library_and_models_are_found_in_whichever_package_folder_holds_them(
+        tmp_path, monkeypatch):
+    """An editable install's package spans the source folder (Python files only) and the
+    installed one (the library and the models the build put there): each is looked up in the
+    first folder that holds it. (Looked up beside the sources, an editable install found
+    neither.)"""
+    import vibrofriction
+    from vibrofriction.laws._mujoco_plugins import LIBRARY_NAME, library_path, package_file
+    source, installed = tmp_path / "source", tmp_path / "installed"
+    source.mkdir()
+    (installed / "mjcf_models").mkdir(parents=True)
+    (installed / LIBRARY_NAME).write_bytes(b"")
+    monkeypatch.setattr(vibrofriction, "__path__", [str(source), str(installed)])
+    assert library_path() == installed.resolve() / LIBRARY_NAME
+    assert package_file("mjcf_models") == installed.resolve() / "mjcf_models"
+    assert package_file("missing.txt") == source.resolve() / "missing.txt"

@@ -18,9 +18,20 @@ LIBRARY_NAME = "libvibrofriction_plugin.so"
 SUPPORTED_MUJOCO = ">=3.17,<4.1"
 
 
+def package_file(name: str) -> Path:
+    """Absolute path of ``name`` at the root of the installed package: in the first of the
+    package's folders that holds it (an editable install's package spans the source folder
+    and the installed one, where the build put the library and the models), else in the
+    first folder."""
+    import sys
+
+    folders = [Path(p).resolve() for p in sys.modules[__name__.split(".")[0]].__path__]
+    return next((f / name for f in folders if (f / name).exists()), folders[0] / name)
+
+
 def library_path() -> Path:
     """Absolute path of the plugin library at the root of the installed package."""
-    return Path(__file__).resolve().parents[1] / LIBRARY_NAME
+    return package_file(LIBRARY_NAME)
 
 
 def version_mismatch(compiled: str, runtime: str) -> str | None:

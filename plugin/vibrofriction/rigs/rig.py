@@ -15,6 +15,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
+from ..laws._mujoco_plugins import package_file
 from ..laws._native import load
 from ..params import (VIBRATION_RAMP_PERIODS, FrictionParameters, ParameterError, RigParameters,
                       _plain)
@@ -25,7 +26,7 @@ from ..vocabulary import config_values
 if TYPE_CHECKING:
     from .steady import Convergence
 
-MJCF_DIR = Path(__file__).resolve().parents[1] / "mjcf_models"
+MJCF_DIR = package_file("mjcf_models")
 RIG_DIR = MJCF_DIR / "rig"
 DEFAULT_TIMESTEP_S = 1e-5
 
