@@ -894,7 +894,7 @@ def _vibration_band(signal: np.ndarray, dt: float, frequency_Hz: float) -> np.nd
     residual low-passed at ``ENVELOPE_BANDWIDTH`` of the frequency) is taken out: left in, it
     counted as noise and let a real amplitude change pass for steady."""
     x = np.asarray(signal, dtype=float)
-    first, fitted, _ = _harmonic_fit(x, dt, frequency_Hz)
+    first, fitted = _harmonic_fit(x, dt, frequency_Hz)
     # (the samples the fit left out do not enter the slow part: a jump or a glitch would;
     # ``slow_part``'s filter needs more than 15 samples: MIN_SAMPLES)
     slow = slow_part(np.where(fitted, x - first, 0.0), dt, frequency_Hz)
@@ -909,9 +909,9 @@ def _vibration_band(signal: np.ndarray, dt: float, frequency_Hz: float) -> np.nd
 
 
 def _harmonic_fit(x: np.ndarray, dt: float, frequency_Hz: float
-                  ) -> tuple[np.ndarray, np.ndarray, float]:
-    """``_vibration_band``'s fit of ``x`` (whose slow part is taken out), which samples it
-    fitted, and the noise sd of its residual.
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """``_vibration_band``'s fit of ``x`` (whose slow part is taken out), and which samples it
+    fitted.
 
     A steady vibration (constant amplitudes and phases fit as well as the finest spline, a knot
     every period, up to the noise) is fitted as one: a handful of values per harmonic, the
@@ -931,8 +931,7 @@ def _harmonic_fit(x: np.ndarray, dt: float, frequency_Hz: float
     starts with the support at rest and its vibration at full amplitude one sample later); a
     lone one (a sensor's glitch) takes the fit's value."""
     n = len(x)
-    harmonics = [h for h in range(1, VIBRATION_HARMONICS + 1)
-                 if h * frequency_Hz <= 0.8 * 0.5 / dt]
+    harmonics = _harmonics(dt, frequency_Hz)
     phase = 2 * math.pi * frequency_Hz * dt * np.arange(n)
     carriers = np.column_stack([f(h * phase) for h in harmonics for f in (np.cos, np.sin)])
     width = carriers.shape[1]
@@ -961,7 +960,7 @@ def _harmonic_fit(x: np.ndarray, dt: float, frequency_Hz: float
         fine = finest_fit(kept)
     _, finest_rss, noise_variance = fine
 
-    def judged(band: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    def judged(band: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         # Left out for good: what the final fit misses too (the finest spline's ends rest on
         # a few samples, and a glitch near an end took its ringing neighbours out with it);
         # kept as measured where at an end or in a run, else the fit's value.
@@ -970,7 +969,7 @@ def _harmonic_fit(x: np.ndarray, dt: float, frequency_Hz: float
         joined[[0, -1]] = True
         joined[1:] |= off[:-1]
         joined[:-1] |= off[1:]
-        return np.where(off & joined, x, band), ~off, math.sqrt(noise_variance)
+        return np.where(off & joined, x, band), ~off
 
     # A steady vibration: one amplitude and phase per harmonic, if the finest spline does not
     # fit better than noise would let it (a cubic envelope over the whole record moved the
@@ -994,6 +993,12 @@ def _harmonic_fit(x: np.ndarray, dt: float, frequency_Hz: float
             break
         knots = sorted(knots + split)
     return judged(band)
+
+
+def _harmonics(dt: float, frequency_Hz: float) -> list[int]:
+    """The harmonics of the vibration that are kept: up to ``VIBRATION_HARMONICS``, below 0.8
+    of the Nyquist frequency."""
+    return [h for h in range(1, VIBRATION_HARMONICS + 1) if h * frequency_Hz <= 0.8 * 0.5 / dt]
 
 
 def _envelope_fit(x: np.ndarray, carriers: np.ndarray, cycles: np.ndarray,
@@ -1034,9 +1039,7 @@ def noise_only_vibration(velocity: np.ndarray, dt: float, frequency_Hz: float) -
     rms of ``vibration_band`` below ``VIBRATION_ABOVE_NOISE`` times the noise's share of a
     band ``ENVELOPE_BANDWIDTH`` of the frequency either side of each harmonic."""
     band = vibration_band(velocity, dt, frequency_Hz)
-    harmonics = sum(1 for h in range(1, VIBRATION_HARMONICS + 1)
-                    if h * frequency_Hz <= 0.8 * 0.5 / dt)
-    share = 2 * ENVELOPE_BANDWIDTH * frequency_Hz * harmonics / (0.5 / dt)
+    share = 2 * ENVELOPE_BANDWIDTH * frequency_Hz * len(_harmonics(dt, frequency_Hz)) / (0.5 / dt)
     # (from first differences: a slow drift the band drops would count as noise in the
     # spread of what it removes, and hide a real vibration)
     noise = math.sqrt(0.5 * float(np.var(np.diff(np.asarray(velocity) - band))))

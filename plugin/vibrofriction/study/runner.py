@@ -14,15 +14,15 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from ..params import FrictionParameters, RigParameters
-from ..rigs.steady import SteadyRun
+from ..rigs.steady import Case, SteadyRun
 from ..rigs.sweep import run_cases
 from ..summary import RunSummary
 from .config import STATIC_TIMESTEP_S, StudyConfig
 
 Progress = Callable[[int, int], None]
-Case = tuple[RigParameters, FrictionParameters]
-# Runs held in memory at once (a 1 us run keeps ~11 MB of time series).
-_CHUNK = 8
+# Cases a chunk: runs held in memory at once (a 1 us run keeps ~11 MB of time series), and a
+# task on a Dask cluster (enough to keep its rollout threads busy, few enough to spread work).
+DEFAULT_CHUNK_SIZE = 8
 
 
 # A study point is one case run to steady state: the engine's record (rigs.steady.SteadyRun).
@@ -31,7 +31,7 @@ Point = SteadyRun
 
 def run_points(cases: Sequence[Case], config: StudyConfig, *,
                timesteps: Sequence[float] | None = None, scheduler: Any = None,
-               chunk_size: int = _CHUNK, progress: Progress | None = None) -> list[Point]:
+               chunk_size: int = DEFAULT_CHUNK_SIZE, progress: Progress | None = None) -> list[Point]:
     """Summaries of ``cases`` (in order), each at its timestep (the study's rule, or
     ``timesteps``), run by the package's one engine (``rigs.sweep.run_cases``) a chunk at a
     time, locally or on the Dask cluster ``scheduler``."""
@@ -46,7 +46,7 @@ def static_cases(cases: Sequence[Case]) -> list[Case]:
 
 
 def static_points(cases: Sequence[Case], config: StudyConfig, *, scheduler: Any = None,
-                  chunk_size: int = _CHUNK, progress: Progress | None = None) -> list[Point]:
+                  chunk_size: int = DEFAULT_CHUNK_SIZE, progress: Progress | None = None) -> list[Point]:
     """The run without vibration of each case (F_d-s and its convergence).
 
     Identical static rigs are run once.

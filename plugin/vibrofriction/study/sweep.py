@@ -19,10 +19,7 @@ from typing import Any
 from ..errors import InputError
 from ..rigs.sweep import DaskUnavailable, dask_map, joint_convergence  # noqa: F401 (re-exported)
 from .config import STATIC_TIMESTEP_S, StudyConfig, friction_for, study_timestep
-from .runner import Case, Progress, run_points
-
-# Cases per task: large enough to keep rollout threads busy, small enough to spread work.
-DEFAULT_CHUNK_SIZE = 8
+from .runner import DEFAULT_CHUNK_SIZE, Case, Progress, run_points
 
 
 @dataclass(frozen=True)
