@@ -180,6 +180,9 @@ class FrictionParameters:
         DEFAULTS["normal_force_modulation_frequency_Hz"]
     normal_force_modulation_phase_rad: float = DEFAULTS["normal_force_modulation_phase_rad"]
     force_offset_N: float = DEFAULTS["force_offset_N"]
+    # width (m) of a play in the contact before the bristles (dahl, dupont, lugre): inside it
+    # the contact is open and carries no friction force
+    contact_play_m: float = DEFAULTS["contact_play_m"]
     # law gms: element i's stiffness (N/m) and share of the level (default: equal shares), and
     # the time constant (s) with which a slipping element's force reaches its level (0: at once)
     gms_stiffness_N_per_m: tuple[float, ...] = DEFAULTS["gms_stiffness_N_per_m"]
@@ -258,6 +261,12 @@ class FrictionParameters:
                  "normal_force_modulation_frequency_Hz",
                  self.normal_force_modulation_frequency_Hz, "must be >= 0")
         _require(self.sensor_lag_s >= 0, "sensor_lag_s", self.sensor_lag_s, "must be >= 0")
+        _require(self.contact_play_m >= 0, "contact_play_m", self.contact_play_m,
+                 "must be >= 0")
+        _require(self.contact_play_m == 0 or self.law in ("dahl", "dupont", "lugre"),
+                 "contact_play_m", self.contact_play_m,
+                 f"is a play before the bristles, which law {self.law} does not have; use law "
+                 "dahl, dupont or lugre, or set it to 0")
         return self
 
     @staticmethod

@@ -92,6 +92,9 @@ FRICTION_TERMS: tuple[Term, ...] = (
          "rad", 0.0, (0.0, 1e6), ALL_LAWS, RESOLVING_ELEMENTS, shapes="normal_force_modulation"),
     Term("force_offset_N", "force_offset", "force_offset", "N", 0.0, (0.0, 1e9), ALL_LAWS,
          LINE_ELEMENT_ONLY),
+    # a play in the contact before the bristles (friction_law.h, ElasticDeflection)
+    Term("contact_play_m", "contact_play", "contact_play", "m", 0.0, (0.0, 1e3),
+         ("dahl", "dupont", "lugre"), LINE_ELEMENT_ONLY),
     # law gms: one value per element (LawParameters::gms, not in the C API struct: the gms
     # elements go to vf_run_law_with_lists as arrays)
     Term("gms_stiffness_N_per_m", "gms_stiffness", None, "N/m", (), (0.0, 1e18), ("gms",),
@@ -154,7 +157,7 @@ LAW_STRUCT_FIELDS = (
     "friction_coefficient", "normal_force", "contact_stiffness", "alpha", "breakaway_ratio",
     "bristle_damping", "viscous", "static_ratio", "stribeck_velocity", "asymmetry", "ripple",
     "ripple_wavelength", "ripple_phase", "normal_modulation", "normal_modulation_frequency",
-    "normal_modulation_phase", "force_offset")
+    "normal_modulation_phase", "force_offset", "contact_play")
 
 __all__ = ["Term", "FRICTION_TERMS", "TERMS_BY_NAME", "DEFAULTS", "MJCF_KEYS", "LIMITS",
            "LAW_STRUCT_FIELDS", "ALL_LAWS", "PAPER_LAWS", "GMS_ELEMENTS", "MAX_GMS_ELEMENTS", "MAX_MAP_KNOTS", "ALL_ELEMENTS", "VELOCITY_LAW_ELEMENTS",

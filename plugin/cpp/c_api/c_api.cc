@@ -28,6 +28,7 @@ LawParameters LawFromStruct(const vf_law_parameters& c) {
   p.normal_modulation_frequency = c.normal_modulation_frequency;
   p.normal_modulation_phase = c.normal_modulation_phase;
   p.force_offset = c.force_offset;
+  p.contact_play = c.contact_play;
   return p;
 }
 
@@ -111,11 +112,17 @@ void RunGms(const LawParameters& p, int n, const double* time, const double* vel
   }
 }
 
+// A play needs the bristles of dahl, dupont or lugre (the config reader's rule).
+bool PlayValid(const vf_law_parameters& c) {
+  if (!(c.contact_play >= 0)) return false;
+  return c.contact_play == 0 || (c.law >= 1 && c.law <= 3);
+}
+
 }  // namespace
 
 extern "C" {
 
-int vf_api_version(void) { return 2; }
+int vf_api_version(void) { return 3; }
 
 int vf_mujoco_header_version(void) { return mjVERSION_HEADER; }
 
@@ -124,6 +131,7 @@ int vf_run_law(const vf_law_parameters* params, int n, const double* time,
                double z0, double* force_out, double* deflection_out) {
   if (!params || n < 0 || !time || !velocity || !force_out || !deflection_out) return -1;
   if (params->law < 0 || params->law > 3) return -1;  // (gms: vf_run_law_with_lists)
+  if (!PlayValid(*params)) return -1;
   RunOneState(vibrofriction::LawFromStruct(*params), n, time, velocity, position, normal_force,
               z0, force_out, deflection_out);
   return 0;
@@ -135,6 +143,7 @@ int vf_run_law_with_lists(const vf_law_parameters* params, const vf_law_lists* l
                           double* deflection_out) {
   if (!params || n < 0 || !time || !velocity || !force_out || !deflection_out) return -1;
   if (params->law < 0 || params->law > 4) return -1;
+  if (!PlayValid(*params)) return -1;
   LawParameters p = vibrofriction::LawFromStruct(*params);
   if (!vibrofriction::SetLawLists(lists, &p)) return -1;
   if ((p.law == vibrofriction::Law::kGms) != (p.gms.count > 0)) return -1;

@@ -17,10 +17,11 @@ extern "C" {
 
 typedef struct vf_law_parameters {
   int law;  // 0 coulomb, 1 dahl, 2 dupont, 3 lugre (4 gms: vf_run_law_with_lists)
+  // (contact_play > 0: dahl, dupont and lugre only)
   double friction_coefficient, normal_force, contact_stiffness, alpha, breakaway_ratio,
       bristle_damping, viscous, static_ratio, stribeck_velocity, asymmetry, ripple,
       ripple_wavelength, ripple_phase, normal_modulation, normal_modulation_frequency,
-      normal_modulation_phase, force_offset;
+      normal_modulation_phase, force_offset, contact_play;
 } vf_law_parameters;
 
 // Version of this C API (bump on any layout change) and the MuJoCo header it was built with.
@@ -62,7 +63,7 @@ VF_EXPORT int vf_run_law_with_lists(const vf_law_parameters* params, const vf_la
 
 // The planar law (plugins/planar_friction.cc) along a prescribed velocity history, same step
 // order as vf_run_law. Coulomb is kinematic (no stick solve). Effects other than the normal-load
-// modulation must be 0. normal_force may be NULL. Writes fx, fy (N) and zx, zy (m) [n].
+// modulation (and the play) must be 0. normal_force may be NULL. Writes fx, fy (N) and zx, zy (m) [n].
 // Returns 0, or -1 on bad arguments.
 VF_EXPORT int vf_run_planar_law(const vf_law_parameters* params, int n, const double* time,
                                 const double* vx, const double* vy, const double* normal_force,

@@ -44,6 +44,7 @@ constexpr NamedRange kRanges[] = {
     {"modulation_frequency", {0.0, 1e9}},   // normal_force_modulation_frequency_Hz
     {"modulation_phase", {0.0, 1e6}},       // normal_force_modulation_phase_rad
     {"force_offset", {0.0, 1e9}},           // force_offset_N
+    {"contact_play", {0.0, 1e3}},           // contact_play_m
     {"sensor_lag", {0.0, 1e3}},             // sensor_lag_s
     {"gms_stiffness", {0.0, 1e18}},         // gms_stiffness_N_per_m (each value)
     {"gms_relaxation_time", {0.0, 1e3}},    // gms_relaxation_time_s

@@ -132,9 +132,8 @@ double AdvanceDupont(const LawParameters& p, const LawInput& in, double z, doubl
   return s * zeta;
 }
 
-}  // namespace
-
-double DeflectionRate(const LawParameters& p, const LawInput& in, double z) {
+// The law's own deflection rate (no play).
+double LawDeflectionRate(const LawParameters& p, const LawInput& in, double z) {
   const double v = in.velocity;
   if (v == 0) return 0.0;
   const double s = Sign(v);
@@ -166,10 +165,9 @@ double DeflectionRate(const LawParameters& p, const LawInput& in, double z) {
   return 0.0;
 }
 
-double AdvanceDeflection(const LawParameters& p, const LawInput& in, double z, double dt) {
+// The law's own step (no play); v != 0, dt > 0.
+double LawAdvance(const LawParameters& p, const LawInput& in, double z, double dt) {
   const double v = in.velocity;
-  if (!HasDeflection(p.law)) return 0.0;
-  if (v == 0 || dt <= 0) return z;
   const double s = Sign(v);
   switch (p.law) {
     case Law::kDahl: {
@@ -199,7 +197,79 @@ double AdvanceDeflection(const LawParameters& p, const LawInput& in, double z, d
   return z;
 }
 
+// Time (s) for the law, with the input held, to bring a deflection z_e that lies against the
+// motion back to 0 (unloading: z_e v < 0). Exact: the laws' steps are closed forms there.
+double UnloadingTime(const LawParameters& p, const LawInput& in, double z_e) {
+  const double speed = std::fabs(in.velocity);
+  const double level = StribeckLevel(p, in) / p.contact_stiffness;  // z_c, z_g or z_max
+  if (level <= 0 || speed == 0) return 0.0;  // no level: the bristles hold nothing
+  const double depth = std::fabs(z_e);
+  switch (p.law) {
+    case Law::kDupont:
+      return depth / speed;  // below the breakaway deflection the law is elastic, dz/dt = v
+    case Law::kLuGre:
+      return level * std::log1p(depth / level) / speed;
+    case Law::kDahl: {
+      // |w| falls from 1 + depth/z_c to 1 with d|w|/dt = -(|v|/z_c) |w|^alpha
+      const double log_w0 = std::log1p(depth / level);
+      if (std::fabs(p.alpha - 1.0) < 1e-12) return level * log_w0 / speed;
+      return level * std::expm1((1.0 - p.alpha) * log_w0) / ((1.0 - p.alpha) * speed);
+    }
+    case Law::kCoulomb:
+    case Law::kGms:
+      return 0.0;
+  }
+  return 0.0;
+}
+
+// A step with the play (ElasticDeflection): at most three exact segments -- the bristles
+// unloading to the face, the free travel across the play, loading on the other face.
+double AdvanceWithPlay(const LawParameters& p, const LawInput& in, double z, double dt) {
+  const double v = in.velocity;
+  const double s = Sign(v);
+  const double half = 0.5 * p.contact_play;
+  double left = dt;
+  for (int segment = 0; segment < 3; ++segment) {
+    if (PlayOpen(p, z, v)) {
+      const double to_face = (s * half - z) / v;
+      if (to_face >= left) return z + v * left;
+      z = s * half;
+      left -= to_face;
+      continue;
+    }
+    const double side = Sign(z);  // |z| >= half > 0: in contact with this face
+    const double z_e = z - side * half;
+    if (side == s) return side * half + LawAdvance(p, in, z_e, left);  // loading
+    const double unloading = UnloadingTime(p, in, z_e);
+    if (unloading >= left) {
+      const double z_end = LawAdvance(p, in, z_e, left);
+      return side * half + (side * z_end > 0 ? z_end : 0.0);
+    }
+    z = side * half;  // the bristles have let go: the play opens
+    left -= unloading;
+  }
+  return z;
+}
+
+}  // namespace
+
+double DeflectionRate(const LawParameters& p, const LawInput& in, double z) {
+  if (p.contact_play > 0) {
+    if (PlayOpen(p, z, in.velocity)) return in.velocity;
+    return LawDeflectionRate(p, in, ElasticDeflection(p, z));
+  }
+  return LawDeflectionRate(p, in, z);
+}
+
+double AdvanceDeflection(const LawParameters& p, const LawInput& in, double z, double dt) {
+  if (!HasDeflection(p.law)) return 0.0;
+  if (in.velocity == 0 || dt <= 0) return z;
+  if (p.contact_play > 0 && p.law != Law::kGms) return AdvanceWithPlay(p, in, z, dt);
+  return LawAdvance(p, in, z, dt);
+}
+
 double StateForce(const LawParameters& p, const LawInput& in, double z) {
+  if (PlayOpen(p, z, in.velocity)) return p.force_offset;
   const double undamped = UndampedStateForce(p, in.velocity, z);
   return p.bristle_damping != 0 ? undamped + p.bristle_damping * DeflectionRate(p, in, z)
                                 : undamped;
@@ -220,10 +290,11 @@ double DampingCoefficient(const LawParameters& p, const LawInput& in, double z, 
 
 double ImplicitStateForce(const LawParameters& p, const LawInput& in, double z,
                           double velocity_free, double dt_inverse_mass) {
-  const double elastic = p.contact_stiffness * z + p.force_offset;
+  const double elastic = p.contact_stiffness * ElasticDeflection(p, z) + p.force_offset;
   const double v_trial = velocity_free - dt_inverse_mass * elastic;  // damping off
   const double speed = std::max(std::fabs(in.velocity), std::fabs(v_trial));
   const double direction = v_trial != 0 ? Sign(v_trial) : Sign(in.velocity);
+  if (PlayOpen(p, z, direction)) return p.force_offset;  // (no play: never)
   if (speed == 0) return elastic;
   const double damping = DampingCoefficient(p, in, z, direction, speed);
   if (damping <= 0) return StateForce(p, in, z);

@@ -116,6 +116,7 @@ struct LawParameters {
   double normal_modulation_frequency = 0.0;  // f_m (Hz)
   double normal_modulation_phase = 0.0;      // phi_m (rad)
   double force_offset = 0.0;                 // constant added to F (N)
+  double contact_play = 0.0;                 // width b of a play before the bristles (m)
   GmsElements gms;                           // law gms only
   LevelMap position_map;                     // level x factor along the relative position
   LevelMap velocity_map = LevelMap::WithLinearEnds();  // level x factor over the speed |v|
@@ -181,8 +182,33 @@ inline double StribeckLevel(const LawParameters& p, const LawInput& in) {
   return coulomb * VelocityShape(p, in.velocity);
 }
 
-// k_t z + sigma2 v + offset (N): the state force without bristle damping, which needs no level.
+// A play in the contact (contact_play = b > 0; dahl, dupont, lugre): the state z is the whole
+// deflection, play included, and the bristles deflect by the part beyond b/2 on either side,
+// z_e = dz(z, b/2). Inside the play the contact is open: z follows the motion (dz/dt = v) and
+// the contact carries no friction force (bristles, their damping and the viscous term; the
+// force offset, a sensor's, stays). At a face the law takes over with z_e from 0, and while
+// unloading it gives z_e back to 0 before the play opens again: after a reversal the force
+// drops elastically, stays near 0 across the play, then loads again on the other face.
+inline double ElasticDeflection(const LawParameters& p, double z) {
+  if (p.contact_play <= 0) return z;
+  const double half = 0.5 * p.contact_play;
+  return z > half ? z - half : (z < -half ? z + half : 0.0);
+}
+
+// True when the play is open at deflection z with the motion v: inside it, or at a face and
+// moving away from it.
+inline bool PlayOpen(const LawParameters& p, double z, double velocity) {
+  if (p.contact_play <= 0) return false;
+  const double half = 0.5 * p.contact_play;
+  return std::fabs(z) < half || (std::fabs(z) == half && velocity * z < 0);
+}
+
+// k_t z_e + sigma2 v + offset (N): the state force without bristle damping, which needs no level.
 inline double UndampedStateForce(const LawParameters& p, double velocity, double z) {
+  if (p.contact_play > 0) {
+    if (PlayOpen(p, z, velocity)) return p.force_offset;
+    z = ElasticDeflection(p, z);
+  }
   return p.contact_stiffness * z + p.viscous * velocity + p.force_offset;
 }
 
@@ -191,7 +217,9 @@ double DeflectionRate(const LawParameters& p, const LawInput& in, double z);
 
 // Deflection after a step dt (s) with the input held constant. Exact for Dahl (any alpha) and
 // LuGre; for Dupont an exact elastic segment then trapezoidal substeps of the plastic part.
-// Unconditionally stable: the result never overshoots the steady deflection.
+// Unconditionally stable: the result never overshoots the steady deflection. With a play the
+// step is split exactly where the bristles let go (z_e reaches 0: a closed form per law) and
+// where the motion reaches the other face.
 double AdvanceDeflection(const LawParameters& p, const LawInput& in, double z, double dt);
 
 // Friction force F (N) of a state law at deflection z (not for Coulomb).

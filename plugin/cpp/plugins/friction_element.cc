@@ -20,13 +20,14 @@ constexpr char kRipple[] = "ripple";
 constexpr char kRippleWavelength[] = "ripple_wavelength";
 constexpr char kRipplePhase[] = "ripple_phase";
 constexpr char kForceOffset[] = "force_offset";
+constexpr char kContactPlay[] = "contact_play";
 constexpr char kSensorLag[] = "sensor_lag";
 
 const char* const kAttributes[] = {
     kLaw, kMu, kNormal, kNormalSensor, kNormalGain, kNormalComponent, kContactGeom1,
     kContactGeom2, kStiffness, kAlpha, kBreakaway, kSigma1, kViscous, kStaticRatio,
     kStribeckVelocity, kAsymmetry, kRipple, kRippleWavelength, kRipplePhase, kNormalModulation,
-    kModulationFrequency, kModulationPhase, kForceOffset, kSensorLag, kGmsStiffness, kGmsWeight,
+    kModulationFrequency, kModulationPhase, kForceOffset, kContactPlay, kSensorLag, kGmsStiffness, kGmsWeight,
     kGmsRelaxationTime, kPositionMapKnots, kPositionMapFactors, kPositionMapPeriod,
     kVelocityMapKnots, kVelocityMapFactors, kNormalFromCtrl};
 
@@ -126,6 +127,7 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
       {kRippleWavelength, &p.ripple_wavelength, 1e-3},
       {kRipplePhase, &p.ripple_phase, 0.0},
       {kForceOffset, &p.force_offset, 0.0},
+      {kContactPlay, &p.contact_play, 0.0},
       {kSensorLag, &c.sensor_lag, 0.0},
   };
   for (const auto& spec : numbers) {
@@ -147,6 +149,14 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
   }
   if (p.ripple_wavelength <= 0) {
     return RejectAttribute(kPlugin, kRippleWavelength, p.ripple_wavelength, "must be > 0 (m)");
+  }
+  if (p.contact_play < 0) {
+    return RejectAttribute(kPlugin, kContactPlay, p.contact_play, "must be >= 0 (m)");
+  }
+  if (p.contact_play > 0 && (p.law == Law::kCoulomb || p.law == Law::kGms)) {
+    return RejectAttribute(kPlugin, kContactPlay, p.contact_play,
+                           "is a play before the bristles, which law coulomb and law gms do not "
+                           "have; use law dahl, dupont or lugre, or remove contact_play");
   }
   if (c.sensor_lag < 0) {
     return RejectAttribute(kPlugin, kSensorLag, c.sensor_lag, "must be >= 0 (s)");

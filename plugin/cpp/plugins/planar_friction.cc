@@ -317,7 +317,10 @@ int vf_run_planar_law(const vf_law_parameters* params, int n, const double* time
   using namespace vibrofriction;
   if (!params || n < 0 || !time || !vx || !vy || !fx || !fy || !zx || !zy) return -1;
   if (params->law < 0 || params->law > 3) return -1;  // (gms: no kinematic planar driver)
-  if (params->asymmetry != 0 || params->ripple != 0 || params->force_offset != 0) return -1;
+  if (params->asymmetry != 0 || params->ripple != 0 || params->force_offset != 0 ||
+      params->contact_play != 0) {
+    return -1;
+  }
   const LawParameters p = LawFromStruct(*params);  // (the refused effects are 0)
   auto input = [&](int i) {
     LawInput in;

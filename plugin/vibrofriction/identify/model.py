@@ -33,7 +33,12 @@ EFFECTS = ("viscous", "stribeck", "asymmetry", "position_ripple", "normal_force_
 # as a spline along the travel and over the speed. Their shapes are free, so they compete with
 # the vocabulary's narrower forms on the information criterion.
 MAP_EFFECTS = ("position_map", "velocity_map")
-INVERSE_EFFECTS = EFFECTS + MAP_EFFECTS
+# A play in the contact before the bristles (FrictionParameters.contact_play_m): after each
+# reversal the force falls to 0 and stays there across the play before the contact loads
+# again on its other face. Traced on the inverse path, where the measured displacement drives
+# the contact itself (the rig's backlash, below, sits before the dynamometer instead).
+CONTACT_EFFECTS = ("contact_play",)
+INVERSE_EFFECTS = EFFECTS + MAP_EFFECTS + CONTACT_EFFECTS
 # Effects of the rig beyond the friction, which only the simulation path traces: backlash
 # between the drive and the slider (a dead band of the drive spring). The inverse model takes
 # the measured drive force as it is, so a play before the dynamometer does not enter it.
@@ -156,6 +161,8 @@ def parameter_table(law: str, effects: Sequence[str], fit_mass: bool,
         "drive_backlash_m": Param("drive_backlash_m", 0.0, 10 * scales.travel_m,
                                   0.01 * scales.travel_m),
         "sensor_lag_s": Param("sensor_lag_s", 0.0, 1e4 * scales.dt_s, scales.dt_s),
+        # a play in the contact: at most the record's travel (a wider one never closes)
+        "contact_play_m": Param("contact_play_m", 0.0, scales.travel_m, 0.01 * scales.travel_m),
         "force_offset_N": Param("force_offset_N", -1e3 * f, 1e3 * f, 0.1 * f),
         "mass_kg": Param("mass_kg", 1e-9, 1e9, 1.0),
         # a scene's named value: the damping of the slide joint its mapping names
@@ -200,6 +207,7 @@ EFFECT_INTERNALS: dict[str, tuple[str, ...]] = {
     "sensor_lag": ("sensor_lag_s",),
     "force_offset": ("force_offset_N",),
     "backlash": ("drive_backlash_m",),
+    "contact_play": ("contact_play_m",),
     "position_map": tuple(f"position_map_c{i}" for i in range(1, POSITION_MAP_KNOTS)),
     "velocity_map": tuple(f"velocity_map_c{i}" for i in range(1, VELOCITY_MAP_KNOTS)),
 }
@@ -215,6 +223,7 @@ EFFECT_FIELDS: dict[str, tuple[str, ...]] = {
     "sensor_lag": ("sensor_lag_s",),
     "force_offset": ("force_offset_N",),
     "backlash": ("drive_backlash_m",),
+    "contact_play": ("contact_play_m",),
     # a map's factor at each knot (FrictionParameters' position_map_factors /
     # velocity_map_factors, with the knots the model holds)
     "position_map": tuple(f"position_map_factor_{i}" for i in range(1, POSITION_MAP_KNOTS + 1)),
@@ -437,5 +446,5 @@ def first_order_lag(signal: np.ndarray, time_s: np.ndarray, tau_s: float,
 
 ProgressFn = Callable[[str], None]
 
-__all__ = ["EFFECTS", "MAP_EFFECTS", "INVERSE_EFFECTS", "LAW_PARAMETERS", "EFFECT_FIELDS", "EFFECT_INTERNALS", "Param", "Scales",
+__all__ = ["EFFECTS", "MAP_EFFECTS", "CONTACT_EFFECTS", "INVERSE_EFFECTS", "LAW_PARAMETERS", "EFFECT_FIELDS", "EFFECT_INTERNALS", "Param", "Scales",
            "Model", "first_order_lag", "forward_steps"]

@@ -46,6 +46,7 @@ CANDIDATE_EVALUATIONS_PER_PARAMETER = 20
 # this range of fractions of the record's travel.
 _DEFLECTION_SCAN = np.logspace(-6, 0, 25)
 _STRIBECK_SCAN = np.logspace(-2, 0.5, 11)  # v_s / rms(v_r)
+_PLAY_SCAN = np.logspace(-3, math.log10(0.5), 13)  # play width / the record's travel
 
 ProgressFn = Callable[[str], None]
 
@@ -174,6 +175,9 @@ def _not_applicable(record: Record, law: str, declared: Sequence[str]) -> dict[s
     elif not record.vibrating and record.drive_velocity_m_per_s == 0:
         out["drive_damping"] = ("identical to viscous here: fixed support and no drive spring, "
                                 "so h_d (v_d - xdot) = -h_d v_r")
+    if law in ("coulomb", "gms"):
+        out["contact_play"] = (f"a play before the bristles needs a law with a deflection "
+                               f"(dahl, dupont, lugre), not {law}")
     if np.ptp(record.relative_position_m) < 2 * _min_wavelength(record):
         out["position_ripple"] = "the record does not travel two ripple wavelengths"
     for effect in declared:
@@ -368,6 +372,18 @@ def _effect_start(problem: Problem, current: FitResult, effect: str,
         # The projection linearizes; start within a plausible Stribeck peak.
         best["static_ratio"] = min(max(best.get("static_ratio", 1.0), 1.0 + 1e-3), 3.0)
         return best
+    if effect == "contact_play":
+        # The force is not linear in the play's width (it moves where the contact closes):
+        # scanned over widths from 1/1000 of the travel to half of it.
+        travel = params["contact_play_m"].upper
+        best, best_rss = {}, math.inf
+        for fraction in _PLAY_SCAN:
+            trial = {"contact_play_m": fraction * travel}
+            r = problem.residual(model, model.internal({**base, **trial}))
+            rss = float(r @ r)
+            if rss < best_rss:
+                best, best_rss = trial, rss
+        return best
     if effect == "position_ripple":
         wavelength = _ripple_scan(problem, current)
         fixed = {"position_ripple_wavelength_m": wavelength}
@@ -465,6 +481,7 @@ def _exposing_regressor(effect: str, analysis: ResidualAnalysis) -> str:
         "normal_force_modulation": "support_phase", "drive_damping": "support_phase",
         "sensor_lag": "support_phase", "force_offset": "relative_velocity",
         "position_map": "position", "velocity_map": "relative_velocity",
+        "contact_play": "time_since_reversal",
     }[effect]
     if preferred in analysis.binned:
         return preferred

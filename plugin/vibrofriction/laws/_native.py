@@ -9,7 +9,7 @@ import mujoco
 from ._mujoco_plugins import library_path, version_mismatch
 from ..vocabulary import LAW_STRUCT_FIELDS
 
-_API_VERSION = 2
+_API_VERSION = 3
 _lock = threading.Lock()
 _library: ctypes.CDLL | None = None
 

@@ -35,6 +35,9 @@ Laws (s0 = k_t, s1 bristle damping, s2 viscous; all integrated with LSODA):
   stuck, the slider rides with the support while |F_d - m u''| <= F_s. Integration restarts
   at each event (v_r = 0, stick force reaching +-F_s).
 
+``contact_play_m`` = b > 0 (dahl, dupont, lugre): z is the whole deflection; while |z| < b/2
+the contact is open (z' = v_r, F = the offset alone), beyond it the law runs on z -+ b/2.
+
 ``force_offset_N`` is added to F (it acts on the slider); ``sensor_lag_s`` lags only the
 reported friction force. Coulomb's reported force jumps, so its sampled mean carries an error
 of order F_c sample_dt/period per jump (~0.005-0.02 N at 1 us, 4 kHz); F_d is smooth.
@@ -139,6 +142,8 @@ def simulate_reference(rig: RigParameters, friction: FrictionParameters, duratio
         series = _simulate_gms(drive, contact, friction, t_grid, tolerances, max_step_s)
     else:
         law: Law = getattr(contact, friction.law)
+        if friction.contact_play_m > 0:
+            law = _through_play(law, friction.contact_play_m, contact.offset_N)
         series = _simulate_state_law(drive, law, t_grid, tolerances, max_step_s)
     friction_N = first_order_lag(series["friction_force_N"], t_grid[1] - t_grid[0],
                                   friction.sensor_lag_s)
@@ -287,6 +292,19 @@ class _Contact:
     def static_limit(self, t: float, x_rel: float, direction: float) -> float:
         """F_s (N) the stuck contact can hold against impending slip in ``direction``."""
         return self.stribeck(self.coulomb_level(t, x_rel, direction), 0.0)
+
+
+def _through_play(law: Law, play_m: float, offset_N: float) -> Law:
+    """``law`` behind a play of width ``play_m``: z is the whole deflection; the bristles see
+    the part beyond half the play, and inside it the contact is open (z' = v_r, only the
+    offset acts)."""
+    half = 0.5 * play_m
+
+    def through(t: float, x_rel: float, v: float, z: float) -> tuple[float, float]:
+        if abs(z) < half or (abs(z) == half and v * z < 0):
+            return v, offset_N
+        return law(t, x_rel, v, z - math.copysign(half, z))
+    return through
 
 
 def _level_map(knots: Sequence[float], factors: Sequence[float], period: float,
