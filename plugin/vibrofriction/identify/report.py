@@ -228,11 +228,14 @@ def _residual_lines(r: Identification) -> list[str]:
                   f"{ringing.damping_ratio:.3g} and {ringing.amplitude_N:.3g} N at the reversal "
                   f"({100 * ringing.explained:.0f} % of that averaged residual): a resonance "
                   "the friction model lacks -- a compliance in series with the contact, or "
-                  "backlash whose impacts excite it. Neither is a candidate of this (inverse) "
-                  "path, which takes the measured force as it is: a play in a rig's drive, "
-                  "before its dynamometer, is the simulation path's `backlash` candidate; a play "
-                  "or compliance between the measured displacement and the contact is not in "
-                  "the vocabulary yet.", ""]
+                  "backlash whose impacts excite it. A play in the contact itself (the force "
+                  "near 0 for a stretch after each reversal) is the candidate `contact_play`"
+                  + (" (selected above)" if "contact_play" in r.selected else
+                     " (" + r.skipped["contact_play"] + ")" if "contact_play" in r.skipped
+                     else " (tried above)") +
+                  "; a play in a rig's drive, before its dynamometer, is the simulation path's "
+                  "`backlash` candidate; the impacts' resonance (a mass behind the play) is "
+                  "not in the vocabulary.", ""]
     return lines
 
 
