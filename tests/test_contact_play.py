@@ -34,16 +34,22 @@ LAWS = {
                                  contact_stiffness_N_per_m=60e6, breakaway_ratio=0.6,
                                  force_offset_N=0.3),
 }
+# the exact split's cases beyond LAWS: Dahl's finite-time branch (alpha < 1), levels that
+# depend on the direction
+SPLIT_CASES = {**LAWS,
+               "dahl alpha 0.5": replace(LAWS["dahl"], alpha=0.5),
+               "lugre asymmetric": replace(LAWS["lugre"], asymmetry=0.3),
+               "dupont asymmetric": replace(LAWS["dupont"], asymmetry=-0.25)}
 
 
-@pytest.mark.parametrize("law", sorted(LAWS))
-def test_the_play_is_the_law_with_the_free_travel_taken_out(law):
+@pytest.mark.parametrize("case", sorted(SPLIT_CASES))
+def test_the_play_is_the_law_with_the_free_travel_taken_out(case):
     """From a face, at constant speeds with reversals: each reversal unloads the bristles
     exactly as the law without play does until their deflection is 0, then the contact is
     open for b/|v| (the force is the offset alone), then the law goes on as if the play were
     not there. So the run with the play, its samples inside the play removed, is the run
     without it, to rounding: a check of the step's exact split at both ends of the play."""
-    friction = LAWS[law]
+    friction = SPLIT_CASES[case]
     segments = [(+1, 300), (-1, 600), (+1, 600), (-1, 400)]
     plain_v = np.concatenate([np.full(n, s * SPEED_M_PER_S) for s, n in segments])
     play_v = np.concatenate([np.full(n + (FREE_STEPS if i else 0), s * SPEED_M_PER_S)
@@ -62,8 +68,8 @@ def test_the_play_is_the_law_with_the_free_travel_taken_out(law):
     np.testing.assert_allclose(played.friction_force_N[~inside], plain.friction_force_N,
                                rtol=0, atol=1e-9 * level)
     # the force does reverse: both faces were loaded to the level
-    assert played.friction_force_N.max() > 0.9 * level
-    assert played.friction_force_N.min() < -0.9 * level
+    assert played.friction_force_N.max() > 0.5 * level
+    assert played.friction_force_N.min() < -0.5 * level
 
 
 def test_from_the_centre_the_contact_closes_after_half_the_play():
@@ -71,32 +77,64 @@ def test_from_the_centre_the_contact_closes_after_half_the_play():
     v = np.full(400, SPEED_M_PER_S)
     run = run_law(friction, np.arange(v.size) * DT_S, v, normal_force_N=NORMAL_N)
     closed = np.flatnonzero(run.friction_force_N != friction.force_offset_N)[0]
-    # z reaches b/2 after 100 steps; the sample at exactly the face is still open (moving in)
+    # z reaches b/2 after 100 steps, to rounding: closed at that sample, or one later when
+    # the rounded z falls short of the face
     assert closed in (100, 101)
 
 
 @pytest.mark.parametrize("law", sorted(LAWS))
-@pytest.mark.parametrize("amplitude_m_per_s", [0.0, 0.02])
-def test_the_mjcf_element_with_a_play_is_the_reference(law, amplitude_m_per_s):
-    """The rig (MuJoCo, the plugin's element) against the scipy oracle's own play, still and
-    on a support vibrating at 4 kHz across a 3 um play (0.8 um amplitude): the contact opens
-    and closes every period. At 1 us steps: the element takes a step that starts in the open
-    play as open throughout, so its force is first order in the step at each closing, and
-    with LuGre's damping the force jumps there by (sigma1 + sigma2) v_r, 4 times the level
-    here. Measured, drive force and mean friction against the level: 1e-6 to 1e-4 still,
-    up to 1.2e-3 vibrating (LuGre; 1e-3 at 0.5 us, 3e-4 at 0.25 us: it converges)."""
+def test_the_mjcf_element_with_a_play_is_the_reference(law):
+    """The rig (MuJoCo, the plugin's element) against the scipy oracle's own play, with the
+    support still: the slider sticks and slips across a 3 um play, sample by sample at 1 us
+    (measured: 1e-6 to 2e-5 of the level)."""
     friction = replace(LAWS[law], contact_play_m=3e-6, force_offset_N=0.0)
-    params = RigParameters(vibration_velocity_amplitude_m_per_s=amplitude_m_per_s)
+    params = RigParameters()
     run = rig_module.simulate(params, friction, duration_s=0.01, timestep_s=1e-6)
     ref = reference.simulate_reference(params, friction, 0.01, sample_dt_s=1e-6)
     n = min(len(run.time_s), len(ref.time_s))
     level = friction.friction_coefficient * params.normal_force_N
     np.testing.assert_allclose(run.drive_force_N[:n], ref.drive_force_N[:n], rtol=0,
-                               atol=3e-3 * level)
-    assert abs(np.mean(run.friction_force_N[:n]) - np.mean(ref.friction_force_N[:n])) < \
-        3e-3 * level
+                               atol=2e-4 * level)
     inside = np.abs(ref.deflection_m) < 1.5e-6
     assert inside.any() and not inside.all()  # the play is crossed
+
+
+def _mean_friction_N(run, mass_kg: float, from_s: float) -> float:
+    """The time-mean friction from the smooth drive force and the momentum change (a sampled
+    mean of the friction force would be biased by its jumps at the play's faces)."""
+    t = np.asarray(run.time_s)
+    k = int(np.searchsorted(t, from_s - 1e-12))
+    drive = np.trapezoid(np.asarray(run.drive_force_N)[k:], t[k:]) / (t[-1] - t[k])
+    v = np.asarray(run.slider_velocity_m_per_s)
+    return float(drive - mass_kg * (v[-1] - v[k]) / (t[-1] - t[k]))
+
+
+@pytest.mark.parametrize("law", sorted(LAWS))
+@pytest.mark.parametrize("amplitude_m_per_s", [0.02, 0.1])
+def test_a_vibration_across_the_play_converges_to_the_reference(law, amplitude_m_per_s):
+    """A support vibrating at 4 kHz against a 3 um play: at 0.1 m/s the relative motion
+    (4 um) crosses the play every period, at 0.02 m/s it opens and closes one face. The
+    element's step is exact for z, but its force is first order in the step at each closing
+    and opening (it weighs the closed contact's force by the part of the step it is closed,
+    estimated from the step's velocity). With LuGre's damping the force jumps by
+    (sigma1 + sigma2) v_r at a closing, 4 to 20 times the level here. Measured, the mean
+    friction's error against the level: 6e-2 to 7e-2 at 10 us, 7e-3 to 9e-3 at 1 us,
+    1e-4 to 2e-3 at 0.25 us (LuGre); Dahl and Dupont, whose force does not jump, 2e-4 or less
+    at 1 us. Asserted: within 1.5e-2 at 1 us and at least halved at 0.25 us (or within 3e-5,
+    the oracle's and the sampled mean's own accuracy)."""
+    friction = replace(LAWS[law], contact_play_m=3e-6, force_offset_N=0.0)
+    params = RigParameters(vibration_velocity_amplitude_m_per_s=amplitude_m_per_s)
+    level = friction.friction_coefficient * params.normal_force_N
+    duration_s, settle_s = 0.03, 0.01
+    ref = reference.simulate_reference(params, friction, duration_s, sample_dt_s=1e-6)
+    truth = _mean_friction_N(ref, params.mass_kg, settle_s)
+    errors = []
+    for timestep_s in (1e-6, 2.5e-7):
+        run = rig_module.simulate(params, friction, duration_s=duration_s,
+                                  timestep_s=timestep_s)
+        errors.append(abs(_mean_friction_N(run, params.mass_kg, settle_s) - truth) / level)
+    assert errors[0] < 1.5e-2, errors
+    assert errors[1] < max(0.5 * errors[0], 3e-5), errors
 
 
 def test_a_play_needs_bristles():

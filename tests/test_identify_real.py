@@ -82,10 +82,14 @@ def test_friction_damper_fit_one_run_validate_on_the_other() -> None:
     one = convert_friction_damper(_need(DAMPER_1HZ))
     two = convert_friction_damper(_need(DAMPER_2HZ))
     r = identify(one, [two], law="lugre")
-    # The backlash ringing after each reversal is outside the vocabulary; LuGre catches the
-    # hysteresis (training error ~22 %) and carries over to the other run.
+    # LuGre catches the hysteresis (training error ~22 %) and carries over to the other run;
+    # the force's plateau near 0 after each reversal is a play in the contact (the dataset
+    # is named for its backlash), traced first (measured: 3.4 mm, held-out 41.9 -> 37.9 %).
     assert r.baseline.train.relerr_pct < 30
     assert r.baseline.validation[0].relerr_pct < 50
+    assert r.selected[:1] == ["contact_play"]
+    assert 1e-3 < r.final.values["contact_play_m"] < 1e-2
+    assert r.final.validation[0].relerr_pct < 0.95 * r.baseline.validation[0].relerr_pct
     for c in r.candidates.values():  # a selected effect must also help the other run
         if c.effect in r.selected:
             assert c.validation_log_ratio < 0

@@ -198,6 +198,7 @@ def test_failure_while_writing_leaves_nothing(records, tmp_path, monkeypatch) ->
 
 @pytest.mark.parametrize("argv, message", [
     (["--with", "friction"], "unknown effect"),
+    (["--with", "contact_play", "--law", "coulomb"], "law coulomb does not have"),
     (["--law", "maxwell"], None),
     (["--set", "alpha=1"], "only the sidecar values"),
     (["--lowpass", "-5"], "--lowpass"),

@@ -288,15 +288,55 @@ double DampingCoefficient(const LawParameters& p, const LawInput& in, double z, 
 
 }  // namespace
 
+namespace {
+
+// The implicit force of a contact that is closed for the fraction `closed` of the step, from
+// its closing or until its opening: F = offset + closed (elastic + damping (v + v_next)/2) with
+// v_next = velocity_free - dt_inverse_mass F, `elastic` the bristles' mean force while closed.
+double PartlyClosedForce(const LawParameters& p, double closed, double elastic, double damping,
+                         double velocity, double velocity_free, double dt_inverse_mass) {
+  return (p.force_offset + closed * (elastic + 0.5 * damping * (velocity + velocity_free))) /
+         (1.0 + 0.5 * closed * damping * dt_inverse_mass);
+}
+
+}  // namespace
+
 double ImplicitStateForce(const LawParameters& p, const LawInput& in, double z,
-                          double velocity_free, double dt_inverse_mass) {
-  const double elastic = p.contact_stiffness * ElasticDeflection(p, z) + p.force_offset;
+                          double velocity_free, double dt_inverse_mass, double dt) {
+  const double z_e = ElasticDeflection(p, z);
+  const double elastic = p.contact_stiffness * z_e + p.force_offset;
   const double v_trial = velocity_free - dt_inverse_mass * elastic;  // damping off
   const double speed = std::max(std::fabs(in.velocity), std::fabs(v_trial));
   const double direction = v_trial != 0 ? Sign(v_trial) : Sign(in.velocity);
-  if (PlayOpen(p, z, direction)) return p.force_offset;  // (no play: never)
+  const double mean_velocity = 0.5 * (in.velocity + v_trial);  // over the step, damping off
+  if (PlayOpen(p, z, direction)) {
+    // Open at the start: closed for the part of the step after the motion reaches the face.
+    const double travel = std::fabs(mean_velocity) * dt;
+    const double to_face = 0.5 * p.contact_play - Sign(mean_velocity) * z;  // (>= 0)
+    if (mean_velocity == 0 || !(travel > to_face)) return p.force_offset;
+    // The bristles from z_e = 0 over the rest of the step (the law's exact step): their mean
+    // force (trapezoidal) and mean rate, sigma1 |z_end| / travel per unit of velocity.
+    const double beyond = travel - to_face;
+    LawInput probe = in;
+    probe.velocity = mean_velocity;
+    const double z_end = LawAdvance(p, probe, 0.0, beyond / std::fabs(mean_velocity));
+    return PartlyClosedForce(p, beyond / travel, 0.5 * p.contact_stiffness * z_end,
+                             p.bristle_damping * std::fabs(z_end) / beyond + p.viscous,
+                             in.velocity, velocity_free, dt_inverse_mass);
+  }
   if (speed == 0) return elastic;
   const double damping = DampingCoefficient(p, in, z, direction, speed);
+  if (p.contact_play > 0 && z_e * mean_velocity < 0 && dt > 0) {
+    // Unloading: closed until the bristles let go, if that is within the step.
+    LawInput probe = in;
+    probe.velocity = mean_velocity;
+    const double unloading = UnloadingTime(p, probe, z_e);
+    if (unloading < dt) {
+      return PartlyClosedForce(p, unloading / dt, 0.5 * p.contact_stiffness * z_e,
+                               std::max(damping, 0.0), in.velocity, velocity_free,
+                               dt_inverse_mass);
+    }
+  }
   if (damping <= 0) return StateForce(p, in, z);
   // F = elastic + damping (v + v_next)/2 with v_next = velocity_free - dt_inverse_mass F.
   return (elastic + 0.5 * damping * (in.velocity + velocity_free)) /

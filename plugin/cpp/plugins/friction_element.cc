@@ -267,7 +267,7 @@ void FrictionElement::Compute(const mjModel* m, mjData* d, int instance) {
     // Damping terms at the end-of-step velocity (see ImplicitStateForce).
     const StepResponse response = ComputeStepResponse(m, d, config_->output, &response_workspace_);
     friction = ImplicitStateForce(p, in, z, response.velocity_free,
-                                  m->opt.timestep * response.inverse_mass);
+                                  m->opt.timestep * response.inverse_mass, m->opt.timestep);
   } else {
     // Rigid Coulomb: the force that stops the transmission within this step, if admissible.
     const StepResponse response = ComputeStepResponse(m, d, config_->output, &response_workspace_);

@@ -1001,6 +1001,12 @@ def _harmonics(dt: float, frequency_Hz: float) -> list[int]:
     return [h for h in range(1, VIBRATION_HARMONICS + 1) if h * frequency_Hz <= 0.8 * 0.5 / dt]
 
 
+# Samples whose rows of the envelope design are built at once: the design holds about 1.3 kB
+# a sample, so a long record is assembled in chunks (a 10 s record at 100 kHz needed GBs);
+# the normal equations, banded, are small. A 0.4 s lab record at 100 kHz is one chunk.
+ENVELOPE_CHUNK_SAMPLES = 1 << 16
+
+
 def _envelope_fit(x: np.ndarray, carriers: np.ndarray, cycles: np.ndarray,
                   knots: Sequence[int] | None, kept: np.ndarray
                   ) -> tuple[np.ndarray, np.ndarray]:
@@ -1010,20 +1016,34 @@ def _envelope_fit(x: np.ndarray, carriers: np.ndarray, cycles: np.ndarray,
     last knot stands for the record's end; None: constant envelopes, one span)."""
     ends = np.array([0, cycles[-1]] if knots is None else knots, dtype=float)
     ends[-1] = cycles[-1]
-    if knots is None:
-        envelope = csc_matrix(np.ones((len(x), 1)))
-    else:
-        k = ENVELOPE_DEGREE
-        envelope = BSpline.design_matrix(
-            cycles, np.concatenate([[ends[0]] * k, ends, [ends[-1]] * k]), k).tocsc()
-    design = hstack([envelope.multiply(carriers[:, [c]]) for c in range(carriers.shape[1])],
-                    format="csr")
-    used = design[np.flatnonzero(kept)]
-    normal = (used.T @ used).tocsc()
+    k = ENVELOPE_DEGREE
+    spline_knots = None if knots is None else \
+        np.concatenate([[ends[0]] * k, ends, [ends[-1]] * k])
+
+    def design(rows: slice):
+        if spline_knots is None:
+            envelope = csc_matrix(np.ones((rows.stop - rows.start, 1)))
+        else:
+            envelope = BSpline.design_matrix(cycles[rows], spline_knots, k).tocsc()
+        return hstack([envelope.multiply(carriers[rows, [c]]) for c in range(carriers.shape[1])],
+                      format="csr")
+
+    chunks = [slice(start, min(start + ENVELOPE_CHUNK_SAMPLES, len(x)))
+              for start in range(0, len(x), ENVELOPE_CHUNK_SAMPLES)]
+    normal, rhs = None, None
+    for rows in chunks:
+        used = design(rows)[np.flatnonzero(kept[rows])]
+        part, part_rhs = used.T @ used, used.T @ x[rows][kept[rows]]
+        normal = part if normal is None else normal + part
+        rhs = part_rhs if rhs is None else rhs + part_rhs
+    normal = normal.tocsc()
     # (a tiny ridge: a spline value whose samples were all left out stays 0, not singular)
     normal = normal + 1e-12 * float(normal.diagonal().mean()) * identity(normal.shape[0],
                                                                           format="csc")
-    fitted = design @ spsolve(normal, used.T @ x[kept])
+    coefficients = spsolve(normal, rhs)
+    fitted = np.empty(len(x))
+    for rows in chunks:
+        fitted[rows] = design(rows) @ coefficients
     span = np.clip(np.searchsorted(ends, cycles, side="right") - 1, 0, len(ends) - 2)
     return fitted, np.bincount(span, np.where(kept, x - fitted, 0.0) ** 2,
                                minlength=len(ends) - 1)

@@ -231,6 +231,7 @@ def _residual_lines(r: Identification) -> list[str]:
                   "backlash whose impacts excite it. A play in the contact itself (the force "
                   "near 0 for a stretch after each reversal) is the candidate `contact_play`"
                   + (" (selected above)" if "contact_play" in r.selected else
+                     " (declared)" if "contact_play" in r.declared else
                      " (" + r.skipped["contact_play"] + ")" if "contact_play" in r.skipped
                      else " (tried above)") +
                   "; a play in a rig's drive, before its dynamometer, is the simulation path's "

@@ -201,6 +201,9 @@ def check_law_and_effects(law: str, declared: Sequence[str],
         where = f" ({'; '.join(notes)})" if notes else ""
         raise InputError(f"unknown effect(s) {', '.join(unknown)}{where}; the vocabulary is "
                          f"{', '.join(effects)}")
+    if "contact_play" in declared and law in ("coulomb", "gms"):
+        raise InputError(f"effect contact_play is a play before the bristles, which law {law} "
+                         "does not have; use --law dahl, dupont or lugre, or leave it out")
 
 
 def check_identifiable(dataset) -> None:

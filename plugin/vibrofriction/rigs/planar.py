@@ -43,7 +43,8 @@ _NOT_PLANAR = tuple(term.name for term in FRICTION_TERMS
 
 
 def check_planar(friction: FrictionParameters) -> FrictionParameters:
-    """Validate and reject the 1D-only effects (direction asymmetry, ripple, offset, lag)."""
+    """Validate and reject the 1D-only effects (direction asymmetry, ripple, offset, lag,
+    the maps, the contact play)."""
     friction.validate()
     for name in _NOT_PLANAR:
         if getattr(friction, name) not in (0, ()):
