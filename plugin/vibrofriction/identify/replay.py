@@ -43,8 +43,8 @@ import numpy as np
 from mujoco import rollout as mj_rollout
 from scipy.interpolate import BSpline, make_interp_spline
 from scipy.signal import butter, sosfiltfilt
-from scipy.sparse import csc_matrix, hstack, identity
-from scipy.sparse.linalg import spsolve
+from scipy.linalg import LinAlgError, solve_banded, solveh_banded
+from scipy.sparse import coo_matrix, csr_matrix
 
 from ..rigs import rig as rig_module
 from ..data.datasets import Dataset, smoothed_derivative
@@ -1001,10 +1001,10 @@ def _harmonics(dt: float, frequency_Hz: float) -> list[int]:
     return [h for h in range(1, VIBRATION_HARMONICS + 1) if h * frequency_Hz <= 0.8 * 0.5 / dt]
 
 
-# Samples whose rows of the envelope design are built at once: the design holds about 1.3 kB
-# a sample, so a long record is assembled in chunks (a 10 s record at 100 kHz needed GBs);
-# the normal equations, banded, are small. A 0.4 s lab record at 100 kHz is one chunk.
-ENVELOPE_CHUNK_SAMPLES = 1 << 16
+# Samples whose rows of the envelope design are built at once: the design and its products
+# hold about 1.5 kB a sample, so a record is assembled in chunks (at once, a 10 s record at
+# 100 kHz needed GBs); the normal equations are banded, small, and solved as a band.
+ENVELOPE_CHUNK_SAMPLES = 1 << 14
 
 
 def _envelope_fit(x: np.ndarray, carriers: np.ndarray, cycles: np.ndarray,
@@ -1020,13 +1020,20 @@ def _envelope_fit(x: np.ndarray, carriers: np.ndarray, cycles: np.ndarray,
     spline_knots = None if knots is None else \
         np.concatenate([[ends[0]] * k, ends, [ends[-1]] * k])
 
-    def design(rows: slice):
+    width = carriers.shape[1]
+
+    def design(rows: slice) -> csr_matrix:
+        # (columns spline value-major, carrier-minor: the normal matrix is banded)
+        count = rows.stop - rows.start
         if spline_knots is None:
-            envelope = csc_matrix(np.ones((rows.stop - rows.start, 1)))
+            envelope = coo_matrix(np.ones((count, 1)))
         else:
-            envelope = BSpline.design_matrix(cycles[rows], spline_knots, k).tocsc()
-        return hstack([envelope.multiply(carriers[rows, [c]]) for c in range(carriers.shape[1])],
-                      format="csr")
+            envelope = BSpline.design_matrix(cycles[rows], spline_knots, k).tocoo()
+        row = np.repeat(envelope.row, width)
+        column = (np.repeat(envelope.col, width) * width +
+                  np.tile(np.arange(width), envelope.nnz))
+        value = np.repeat(envelope.data, width) * carriers[rows][row, column % width]
+        return csr_matrix((value, (row, column)), shape=(count, envelope.shape[1] * width))
 
     chunks = [slice(start, min(start + ENVELOPE_CHUNK_SAMPLES, len(x)))
               for start in range(0, len(x), ENVELOPE_CHUNK_SAMPLES)]
@@ -1036,11 +1043,21 @@ def _envelope_fit(x: np.ndarray, carriers: np.ndarray, cycles: np.ndarray,
         part, part_rhs = used.T @ used, used.T @ x[rows][kept[rows]]
         normal = part if normal is None else normal + part
         rhs = part_rhs if rhs is None else rhs + part_rhs
-    normal = normal.tocsc()
-    # (a tiny ridge: a spline value whose samples were all left out stays 0, not singular)
-    normal = normal + 1e-12 * float(normal.diagonal().mean()) * identity(normal.shape[0],
-                                                                          format="csc")
-    coefficients = spsolve(normal, rhs)
+    # Banded (each spline value overlaps the k next ones), solved by banded Cholesky with a
+    # tiny ridge: a spline value whose samples were all left out stays 0, not singular.
+    upper = (k + 1) * width - 1 if spline_knots is not None else width - 1
+    size = normal.shape[0]
+    banded = np.zeros((upper + 1, size))
+    for offset in range(min(upper, size - 1) + 1):
+        banded[upper - offset, offset:] = normal.diagonal(offset)
+    banded[upper] += 1e-12 * float(np.mean(banded[upper]))
+    try:
+        coefficients = solveh_banded(banded, rhs)
+    except LinAlgError:  # (not positive definite to rounding: the band's LU instead)
+        full = np.vstack([banded, np.zeros((upper, size))])
+        for offset in range(1, min(upper, size - 1) + 1):
+            full[upper + offset, :-offset] = banded[upper - offset, offset:]
+        coefficients = solve_banded((upper, upper), full, rhs)
     fitted = np.empty(len(x))
     for rows in chunks:
         fitted[rows] = design(rows) @ coefficients
