@@ -4,7 +4,8 @@
 A measured support velocity (4 kHz, an amplitude modulated at 5 Hz so that the envelopes need
 a knot every period, white noise) of N samples at 100 kHz is fitted twice in one run: with the
 design assembled in chunks (`replay.ENVELOPE_CHUNK_SAMPLES`, the default) and all at once (the
-chunk as long as the record, as before). Prints the peak Python allocation (tracemalloc) per
+same code with one chunk as long as the record; the fit before chunking, with a general sparse
+solve, needed as much or more). Prints the peak Python allocation (tracemalloc) per
 sample of each, their ratio, the time of each and the largest difference between the fits.
 
     python scripts/bench_band_memory.py [--seconds 2.0 4.0]

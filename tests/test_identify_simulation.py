@@ -373,7 +373,7 @@ def test_an_offset_a_glitch_and_a_switch_off_leave_the_vibration_as_it_was() -> 
 
 def test_a_long_record_is_fitted_in_chunks_as_in_one(monkeypatch) -> None:
     """The band's least squares is assembled a chunk of samples at a time (memory: about
-    1.3 kB a sample when built at once). Chunks of 1000 samples against one chunk, on a
+    1.5 kB a sample when built at once). Chunks of 1000 samples against one chunk, on a
     record with a knot at every period (a 5 Hz modulation, noise, a glitch): the same fit, to
     the solver's rounding."""
     from vibrofriction.identify import replay
@@ -387,6 +387,32 @@ def test_a_long_record_is_fitted_in_chunks_as_in_one(monkeypatch) -> None:
     monkeypatch.setattr(replay, "ENVELOPE_CHUNK_SAMPLES", 1000)
     chunked = replay._vibration_band(velocity, dt, frequency)
     np.testing.assert_allclose(chunked, one, rtol=0, atol=1e-9 * 1.5e-3)
+
+
+def test_the_banded_envelope_fit_is_the_least_squares_fit() -> None:
+    """The envelope fit's banded normal equations against numpy's dense least squares of the
+    same design (carriers times cubic B-splines with a knot every period), with samples left
+    out: the same fit to the normal equations' rounding."""
+    from scipy.interpolate import BSpline
+    from vibrofriction.identify import replay
+    dt, frequency = 1e-5, 4000.0
+    n = 3000
+    phase = 2 * math.pi * frequency * dt * np.arange(n)
+    carriers = np.column_stack([f(h * phase) for h in (1, 2) for f in (np.cos, np.sin)])
+    cycles = frequency * dt * np.arange(n)
+    x = 1.5e-3 * (1 + 0.3 * np.sin(phase / 80)) * carriers[:, 0] + \
+        2e-5 * np.random.default_rng(9).standard_normal(n)
+    kept = np.ones(n, dtype=bool)
+    kept[100:140] = False
+    knots = list(range(int(cycles[-1]) + 1))
+    fitted, _ = replay._envelope_fit(x, carriers, cycles, knots, kept)
+    ends = np.array(knots, dtype=float)
+    ends[-1] = cycles[-1]
+    design = BSpline.design_matrix(cycles, np.concatenate([[0.0] * 3, ends, [ends[-1]] * 3]),
+                                   3).toarray()
+    dense = np.hstack([design * carriers[:, [c]] for c in range(carriers.shape[1])])
+    coefficients, *_ = np.linalg.lstsq(dense[kept], x[kept], rcond=None)
+    np.testing.assert_allclose(fitted, dense @ coefficients, rtol=0, atol=1e-7 * 1.5e-3)
 
 
 def test_replay_refuses_an_undersampled_vibration_and_a_foreign_timestep() -> None:

@@ -222,9 +222,38 @@ double UnloadingTime(const LawParameters& p, const LawInput& in, double z_e) {
   return 0.0;
 }
 
+// The time integral (m s) of the bristles' deflection z_e over a closed segment of `tau` (s)
+// from z_a to z_b at the input's constant velocity: exact for LuGre and Dahl with alpha 1
+// (an exponential relaxation), Simpson's rule on the law's exact step otherwise.
+double DeflectionIntegral(const LawParameters& p, const LawInput& in, double z_a, double z_b,
+                          double tau) {
+  if (tau <= 0) return 0.0;
+  const double level = StribeckLevel(p, in) / p.contact_stiffness;
+  if (level <= 0) return 0.0;
+  if (p.law == Law::kLuGre || (p.law == Law::kDahl && std::fabs(p.alpha - 1.0) < 1e-12)) {
+    const double z_ss = Sign(in.velocity) * level;
+    const double time_constant = level / std::fabs(in.velocity);
+    return z_ss * tau - (z_a - z_ss) * time_constant * std::expm1(-tau / time_constant);
+  }
+  return tau * (z_a + 4.0 * LawAdvance(p, in, z_a, 0.5 * tau) + z_b) / 6.0;
+}
+
+// What a step with the play spends with the contact closed: the time (s) and the time
+// integral of the bristles' deflection over it (m s), for the element's force.
+struct ClosedPart {
+  double time = 0.0;
+  double deflection_integral = 0.0;
+  void Add(const LawParameters& p, const LawInput& in, double z_a, double z_b, double tau) {
+    time += tau;
+    deflection_integral += DeflectionIntegral(p, in, z_a, z_b, tau);
+  }
+};
+
 // A step with the play (ElasticDeflection): at most three exact segments -- the bristles
-// unloading to the face, the free travel across the play, loading on the other face.
-double AdvanceWithPlay(const LawParameters& p, const LawInput& in, double z, double dt) {
+// unloading to the face, the free travel across the play, loading on the other face. With
+// `closed`, adds what the step spends closed.
+double AdvanceWithPlay(const LawParameters& p, const LawInput& in, double z, double dt,
+                       ClosedPart* closed = nullptr) {
   const double v = in.velocity;
   const double s = Sign(v);
   const double half = 0.5 * p.contact_play;
@@ -239,12 +268,19 @@ double AdvanceWithPlay(const LawParameters& p, const LawInput& in, double z, dou
     }
     const double side = Sign(z);  // |z| >= half > 0: in contact with this face
     const double z_e = z - side * half;
-    if (side == s) return side * half + LawAdvance(p, in, z_e, left);  // loading
+    if (side == s) {  // loading
+      const double z_end = LawAdvance(p, in, z_e, left);
+      if (closed) closed->Add(p, in, z_e, z_end, left);
+      return side * half + z_end;
+    }
     const double unloading = UnloadingTime(p, in, z_e);
     if (unloading >= left) {
-      const double z_end = LawAdvance(p, in, z_e, left);
-      return side * half + (side * z_end > 0 ? z_end : 0.0);
+      const double advanced = LawAdvance(p, in, z_e, left);
+      const double z_end = side * advanced > 0 ? advanced : 0.0;
+      if (closed) closed->Add(p, in, z_e, z_end, left);
+      return side * half + z_end;
     }
+    if (closed) closed->Add(p, in, z_e, 0.0, unloading);
     z = side * half;  // the bristles have let go: the play opens
     left -= unloading;
   }
@@ -290,53 +326,66 @@ double DampingCoefficient(const LawParameters& p, const LawInput& in, double z, 
 
 namespace {
 
-// The implicit force of a contact that is closed for the fraction `closed` of the step, from
-// its closing or until its opening: F = offset + closed (elastic + damping (v + v_next)/2) with
-// v_next = velocity_free - dt_inverse_mass F, `elastic` the bristles' mean force while closed.
+// The force of a step whose contact is closed for the fraction `closed` of it, with the
+// bristles' mean elastic force `elastic` and the damping `damping` (N s/m) at the step's end
+// velocity: F = offset + closed (elastic + damping v_next), v_next = velocity_free -
+// dt_inverse_mass F. (At the end velocity, with which MuJoCo moves the positions over the
+// step: a closed episode's damping impulses then add up to sigma1 times the bristles' net
+// deflection, 0 from closing to opening. At the trapezoidal mean each closing and opening
+// left (sigma1 + sigma2) dt v, always toward the face.)
 double PartlyClosedForce(const LawParameters& p, double closed, double elastic, double damping,
-                         double velocity, double velocity_free, double dt_inverse_mass) {
-  return (p.force_offset + closed * (elastic + 0.5 * damping * (velocity + velocity_free))) /
-         (1.0 + 0.5 * closed * damping * dt_inverse_mass);
+                         double velocity_free, double dt_inverse_mass) {
+  return (p.force_offset + closed * (elastic + damping * velocity_free)) /
+         (1.0 + closed * damping * dt_inverse_mass);
+}
+
+// ImplicitStateForce with a play: the step's path at its mean velocity (damping off) says how
+// long the contact is closed and what the bristles do meanwhile.
+double ForceWithPlay(const LawParameters& p, const LawInput& in, double z, double velocity_free,
+                     double dt_inverse_mass, double dt) {
+  const double z_e = ElasticDeflection(p, z);
+  const double v_trial = velocity_free - dt_inverse_mass * (p.contact_stiffness * z_e +
+                                                            p.force_offset);
+  const double mean_velocity = 0.5 * (in.velocity + v_trial);
+  if (mean_velocity != 0 && dt > 0) {
+    LawInput probe = in;
+    probe.velocity = mean_velocity;
+    ClosedPart closed;
+    const double z_end = AdvanceWithPlay(p, probe, z, dt, &closed);
+    if (!(closed.time > 0)) return p.force_offset;
+    if (closed.time < dt) {
+      // The contact closes or opens within the step: the bristles' mean force and damping
+      // per unit of velocity over the closed part (the damping's impulse sigma1 times the
+      // net change of z_e, which is 0 at each closing and opening).
+      const double rate = (ElasticDeflection(p, z_end) - z_e) / (mean_velocity * closed.time);
+      return PartlyClosedForce(p, closed.time / dt,
+                               p.contact_stiffness * closed.deflection_integral / closed.time,
+                               p.bristle_damping * std::max(rate, 0.0) + p.viscous,
+                               velocity_free, dt_inverse_mass);
+    }
+  }
+  // Closed throughout (or no mean motion): the bristles' force at the step's start, as
+  // without a play, the damping at the end velocity.
+  const double direction = v_trial != 0 ? Sign(v_trial) : Sign(in.velocity);
+  if (PlayOpen(p, z, direction)) return p.force_offset;
+  const double speed = std::max(std::fabs(in.velocity), std::fabs(v_trial));
+  const double damping =
+      speed > 0 ? std::max(DampingCoefficient(p, in, z, direction, speed), 0.0) : 0.0;
+  return PartlyClosedForce(p, 1.0, p.contact_stiffness * z_e, damping, velocity_free,
+                           dt_inverse_mass);
 }
 
 }  // namespace
 
 double ImplicitStateForce(const LawParameters& p, const LawInput& in, double z,
                           double velocity_free, double dt_inverse_mass, double dt) {
-  const double z_e = ElasticDeflection(p, z);
-  const double elastic = p.contact_stiffness * z_e + p.force_offset;
+  if (p.contact_play > 0) return ForceWithPlay(p, in, z, velocity_free, dt_inverse_mass, dt);
+  const double elastic = p.contact_stiffness * z + p.force_offset;
   const double v_trial = velocity_free - dt_inverse_mass * elastic;  // damping off
   const double speed = std::max(std::fabs(in.velocity), std::fabs(v_trial));
   const double direction = v_trial != 0 ? Sign(v_trial) : Sign(in.velocity);
-  const double mean_velocity = 0.5 * (in.velocity + v_trial);  // over the step, damping off
-  if (PlayOpen(p, z, direction)) {
-    // Open at the start: closed for the part of the step after the motion reaches the face.
-    const double travel = std::fabs(mean_velocity) * dt;
-    const double to_face = 0.5 * p.contact_play - Sign(mean_velocity) * z;  // (>= 0)
-    if (mean_velocity == 0 || !(travel > to_face)) return p.force_offset;
-    // The bristles from z_e = 0 over the rest of the step (the law's exact step): their mean
-    // force (trapezoidal) and mean rate, sigma1 |z_end| / travel per unit of velocity.
-    const double beyond = travel - to_face;
-    LawInput probe = in;
-    probe.velocity = mean_velocity;
-    const double z_end = LawAdvance(p, probe, 0.0, beyond / std::fabs(mean_velocity));
-    return PartlyClosedForce(p, beyond / travel, 0.5 * p.contact_stiffness * z_end,
-                             p.bristle_damping * std::fabs(z_end) / beyond + p.viscous,
-                             in.velocity, velocity_free, dt_inverse_mass);
-  }
   if (speed == 0) return elastic;
   const double damping = DampingCoefficient(p, in, z, direction, speed);
-  if (p.contact_play > 0 && z_e * mean_velocity < 0 && dt > 0) {
-    // Unloading: closed until the bristles let go, if that is within the step.
-    LawInput probe = in;
-    probe.velocity = mean_velocity;
-    const double unloading = UnloadingTime(p, probe, z_e);
-    if (unloading < dt) {
-      return PartlyClosedForce(p, unloading / dt, 0.5 * p.contact_stiffness * z_e,
-                               std::max(damping, 0.0), in.velocity, velocity_free,
-                               dt_inverse_mass);
-    }
-  }
   if (damping <= 0) return StateForce(p, in, z);
   // F = elastic + damping (v + v_next)/2 with v_next = velocity_free - dt_inverse_mass F.
   return (elastic + 0.5 * damping * (in.velocity + velocity_free)) /

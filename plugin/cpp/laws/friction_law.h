@@ -232,12 +232,13 @@ double StateForce(const LawParameters& p, const LawInput& in, double z);
 // direction of motion dz/dt is linear in v, so this is one linear equation. Stable for any
 // sigma1, sigma2 and dt (an explicit damping force needs (sigma1 + sigma2) dt < 2 m) and second
 // order in dt. With a prescribed velocity (C API, identification) StateForce is used instead.
-// With a play (contact_play) a step in which the contact closes or opens carries the closed
-// contact's force for the part of the step it is closed (the travel to the face at the step's
-// mean velocity; the law's unloading time): with damping the force jumps by
-// (sigma1 + sigma2) v there, and deciding open or closed for the whole step made an impulse
-// error of that jump times dt at every crossing, which a vibration crossing the play at the
-// same phase every period does not average out. `dt` is the step (s).
+// With a play (contact_play) a step in which the contact closes or opens carries the mean
+// force along its path at the step's mean velocity (the time closed, the bristles' mean
+// deflection, the damping impulse sigma1 times the net change of z_e); a step closed
+// throughout, the bristles' force at its start with the damping at the end velocity. (With
+// damping the force jumps by (sigma1 + sigma2) v at a closing; deciding open or closed for
+// the whole step left an error that a vibration crossing the play at the same phase every
+// period did not average out.) `dt` is the step (s).
 double ImplicitStateForce(const LawParameters& p, const LawInput& in, double z,
                           double velocity_free, double dt_inverse_mass, double dt);
 

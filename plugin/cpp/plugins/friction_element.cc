@@ -256,7 +256,7 @@ void FrictionElement::Compute(const mjModel* m, mjData* d, int instance) {
     return;
   }
   const double z = d->act[config_->act_address];
-  if (HasDeflection(p.law) && p.bristle_damping == 0 && p.viscous == 0) {
+  if (HasDeflection(p.law) && p.bristle_damping == 0 && p.viscous == 0 && p.contact_play == 0) {
     // The common case, kept lean: no level, no input needed.
     d->actuator_force[config_->output] = -UndampedStateForce(p, velocity, z);
     return;

@@ -130,6 +130,42 @@ int main() {
     ExpectNear(fr[0], c * f[0], 1e-9 * std::fabs(f1), "isotropy: rotated force, x");
     ExpectNear(fr[1], s * f[0], 1e-9 * std::fabs(f1), "isotropy: rotated force, y");
   }
+  // A play: a step in which the contact closes, opens or does both carries the step's mean
+  // force. With an infinite mass (the velocity held, dt_inverse_mass 0) that mean is known:
+  // the force along the law's exact path, averaged over many short steps. Checked for every
+  // law with the bristle damping and viscous term (the force jumps at a closing) from inside
+  // the play, from a loaded face (opening), and across the whole play within one step.
+  for (const Law law : {Law::kDahl, Law::kLuGre, Law::kDupont}) {
+    LawParameters p = Parameters(law);
+    p.alpha = law == Law::kDahl ? 0.6 : 1.0;
+    p.bristle_damping = 300.0;
+    p.viscous = 20.0;
+    p.force_offset = 0.4;
+    p.contact_play = 4e-6;
+    const double level = p.friction_coefficient * 50.0;  // 10 N, z_c 5 um
+    struct Case {
+      double z, v, dt;
+      const char* what;
+    } cases[] = {
+        {1.0e-6, 1e-3, 2e-3, "closing from inside the play"},
+        {-1.9e-6, -2e-3, 1e-3, "closing right after the start"},
+        {2e-6 + 3e-6, -1e-3, 4e-3, "unloading until the play opens"},
+        {2e-6 + 3e-6, -5e-3, 2e-3, "unloading, crossing the play and loading the other face"},
+    };
+    for (const Case& c : cases) {
+      const LawInput in = Input(c.v);
+      const double step_force = ImplicitStateForce(p, in, c.z, c.v, 0.0, c.dt);
+      const int fine = 200000;
+      double z = c.z, impulse = 0.0;
+      for (int i = 0; i < fine; ++i) {  // the force at each short step's middle
+        const double h = c.dt / fine;
+        const double middle = AdvanceDeflection(p, in, z, 0.5 * h);
+        impulse += StateForce(p, in, middle) * h;
+        z = AdvanceDeflection(p, in, z, h);
+      }
+      ExpectNear(step_force, impulse / c.dt, 1e-5 * level, c.what);
+    }
+  }
   std::printf("%s: %d failures\n", __FILE__, failures);
   return failures == 0 ? 0 : 1;
 }
