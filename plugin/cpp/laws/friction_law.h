@@ -231,11 +231,13 @@ double StateForce(const LawParameters& p, const LawInput& in, double z);
 // the force, v_next = velocity_free - dt_inverse_mass F (dt_inverse_mass = dt J M^-1 J'). For a
 // direction of motion dz/dt is linear in v, so this is one linear equation. Stable for any
 // sigma1, sigma2 and dt (an explicit damping force needs (sigma1 + sigma2) dt < 2 m) and second
-// order in dt. With a prescribed velocity (C API, identification) StateForce is used instead.
+// order in dt (without a play). With a prescribed velocity (C API, identification) StateForce
+// is used instead.
 // With a play (contact_play) a step in which the contact closes or opens carries the mean
 // force along its path at the step's mean velocity (the time closed, the bristles' mean
-// deflection, the damping impulse sigma1 times the net change of z_e); a step closed
-// throughout, the bristles' force at its start with the damping at the end velocity. (With
+// deflection, the damping impulse sigma1 times z_e's change while closed); a step closed
+// throughout, the bristles' force at its start with the damping at the end velocity (first
+// order); a step that would reverse the motion, the force as it stands. (With
 // damping the force jumps by (sigma1 + sigma2) v at a closing; deciding open or closed for
 // the whole step left an error that a vibration crossing the play at the same phase every
 // period did not average out.) `dt` is the step (s).
