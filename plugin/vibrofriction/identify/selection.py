@@ -176,7 +176,7 @@ def _not_applicable(record: Record, law: str, declared: Sequence[str]) -> dict[s
         out["drive_damping"] = ("identical to viscous here: fixed support and no drive spring, "
                                 "so h_d (v_d - xdot) = -h_d v_r")
     if law in ("coulomb", "gms"):
-        out["contact_play"] = (f"a play before the bristles needs a law with a deflection "
+        out["contact_play"] = (f"a play before the bristles needs a law with bristles "
                                f"(dahl, dupont, lugre), not {law}")
     if np.ptp(record.relative_position_m) < 2 * _min_wavelength(record):
         out["position_ripple"] = "the record does not travel two ripple wavelengths"
