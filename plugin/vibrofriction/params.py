@@ -28,7 +28,7 @@ from typing import Any, Mapping
 
 from .errors import InputError
 from .vocabulary import (ALL_LAWS, DEFAULTS, FRICTION_TERMS, MAX_GMS_ELEMENTS, MAX_MAP_KNOTS,
-                         PAPER_CONTACT_STIFFNESS_N_PER_M, PAPER_LAWS)
+                         PAPER_CONTACT_STIFFNESS_N_PER_M, PAPER_LAWS, TERMS_BY_NAME)
 from .vocabulary import LIMITS as _FRICTION_LIMITS
 
 # The list-valued fields (tuples; --set takes "a,b,c" or "a b c")
@@ -263,7 +263,7 @@ class FrictionParameters:
         _require(self.sensor_lag_s >= 0, "sensor_lag_s", self.sensor_lag_s, "must be >= 0")
         _require(self.contact_play_m >= 0, "contact_play_m", self.contact_play_m,
                  "must be >= 0")
-        _require(self.contact_play_m == 0 or self.law in ("dahl", "dupont", "lugre"),
+        _require(self.contact_play_m == 0 or self.law in TERMS_BY_NAME["contact_play_m"].laws,
                  "contact_play_m", self.contact_play_m,
                  f"is a play before the bristles, which law {self.law} does not have; use law "
                  "dahl, dupont or lugre, or set it to 0")

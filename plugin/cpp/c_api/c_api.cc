@@ -115,7 +115,8 @@ void RunGms(const LawParameters& p, int n, const double* time, const double* vel
 // A play needs the bristles of dahl, dupont or lugre (the config reader's rule).
 bool PlayValid(const vf_law_parameters& c) {
   if (!(c.contact_play >= 0)) return false;
-  return c.contact_play == 0 || (c.law >= 1 && c.law <= 3);
+  return c.contact_play == 0 ||
+         vibrofriction::TakesContactPlay(static_cast<vibrofriction::Law>(c.law));
 }
 
 }  // namespace

@@ -63,7 +63,8 @@ VF_EXPORT int vf_run_law_with_lists(const vf_law_parameters* params, const vf_la
 
 // The planar law (plugins/planar_friction.cc) along a prescribed velocity history, same step
 // order as vf_run_law. Coulomb is kinematic (no stick solve). Effects other than the normal-load
-// modulation must be 0, and so must contact_play. normal_force may be NULL. Writes fx, fy (N) and zx, zy (m) [n].
+// modulation must be 0, and so must contact_play. normal_force may be NULL. Writes fx, fy (N)
+// and zx, zy (m) [n].
 // Returns 0, or -1 on bad arguments.
 VF_EXPORT int vf_run_planar_law(const vf_law_parameters* params, int n, const double* time,
                                 const double* vx, const double* vy, const double* normal_force,

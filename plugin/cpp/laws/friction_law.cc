@@ -317,7 +317,7 @@ double DeflectionRate(const LawParameters& p, const LawInput& in, double z) {
 double AdvanceDeflection(const LawParameters& p, const LawInput& in, double z, double dt) {
   if (!HasDeflection(p.law)) return 0.0;
   if (in.velocity == 0 || dt <= 0) return z;
-  if (p.contact_play > 0 && p.law != Law::kGms) return AdvanceWithPlay(p, in, z, dt);
+  if (p.contact_play > 0 && TakesContactPlay(p.law)) return AdvanceWithPlay(p, in, z, dt);
   return LawAdvance(p, in, z, dt);
 }
 
@@ -339,10 +339,6 @@ double DampingCoefficient(const LawParameters& p, const LawInput& in, double z, 
   return p.bristle_damping * DeflectionRate(p, probe, z) / probe.velocity + p.viscous;
 }
 
-}  // namespace
-
-namespace {
-
 // The force of a step whose contact is closed for the fraction `closed` of it, with the
 // bristles' mean elastic force `elastic` and the damping `damping` (N s/m) at the step's end
 // velocity: F = offset + closed (elastic + damping v_next), v_next = velocity_free -
@@ -356,61 +352,61 @@ double PartlyClosedForce(const LawParameters& p, double closed, double elastic, 
          (1.0 + closed * damping * dt_inverse_mass);
 }
 
-// ImplicitStateForce with a play: the step's path at its mean velocity (damping off) says how
-// long the contact is closed and what the bristles do meanwhile.
-double ForceWithPlay(const LawParameters& p, const LawInput& in, double z, double velocity_free,
-                     double dt_inverse_mass, double dt) {
+// With a play: whether the contact closes or opens within the step, judged along the step's
+// path at its mean velocity, and then (in `force`) the mean force along that path -- the
+// bristles' mean force and damping per unit of velocity over the closed part, the damping's
+// impulse sigma1 times z_e's change over the closed segments (0 at each closing and opening).
+// A step that reverses the motion, or one too long for the bristles to follow (the start's
+// elastic force alone would turn the velocity), is not: a path walked the other way would load
+// the far face and push the body along its motion.
+bool ClosesOrOpens(const LawParameters& p, const LawInput& in, double z, double mean_velocity,
+                   double velocity_free, double dt_inverse_mass, double dt, double* force) {
+  if (!(mean_velocity * in.velocity > 0 && dt > 0)) return false;
+  LawInput probe = in;
+  probe.velocity = mean_velocity;
   const double z_e = ElasticDeflection(p, z);
-  const double v_trial = velocity_free - dt_inverse_mass * (p.contact_stiffness * z_e +
-                                                            p.force_offset);
-  const double mean_velocity = 0.5 * (in.velocity + v_trial);
-  // (a step that reverses the motion, or one too long for the bristles to follow -- the
-  // start's elastic force alone would turn the velocity -- is taken as it stands: a path
-  // walked the other way would load the far face and push the body along its motion)
-  if (mean_velocity * in.velocity > 0 && dt > 0) {
-    LawInput probe = in;
-    probe.velocity = mean_velocity;
-    ClosedPart closed;
-    AdvanceWithPlay(p, probe, z, dt, &closed);
-    if (!(closed.time > 0)) return p.force_offset;
-    if (closed.opened || closed.time < dt) {
-      // The contact closes or opens within the step: the bristles' mean force and damping
-      // per unit of velocity over the closed part (the damping's impulse sigma1 times the
-      // change of z_e over the closed segments, which is 0 at each closing and opening).
-      const double rate = closed.deflection_change / (mean_velocity * closed.time);
-      return PartlyClosedForce(p, closed.time / dt,
-                               p.contact_stiffness * closed.deflection_integral / closed.time,
-                               p.bristle_damping * std::max(rate, 0.0) + p.viscous,
-                               velocity_free, dt_inverse_mass);
-    }
+  // (a step loading its face, or unloading but not to 0, stays closed: no path to walk)
+  if (!PlayOpen(p, z, mean_velocity) &&
+      (Sign(z) == Sign(mean_velocity) || UnloadingTime(p, probe, z_e) >= dt)) {
+    return false;
   }
-  // Closed throughout (or no mean motion): the bristles' force at the step's start, as
-  // without a play, the damping at the end velocity.
-  const double direction = v_trial != 0 ? Sign(v_trial) : Sign(in.velocity);
-  if (PlayOpen(p, z, direction)) return p.force_offset;
-  const double speed = std::max(std::fabs(in.velocity), std::fabs(v_trial));
-  if (speed == 0) return p.contact_stiffness * z_e + p.force_offset;
-  const double damping = DampingCoefficient(p, in, z, direction, speed);
-  if (damping <= 0) return StateForce(p, in, z);  // (beyond the steady deflection, as without)
-  return PartlyClosedForce(p, 1.0, p.contact_stiffness * z_e, damping, velocity_free,
-                           dt_inverse_mass);
+  ClosedPart closed;
+  AdvanceWithPlay(p, probe, z, dt, &closed);
+  if (!(closed.time > 0)) {
+    *force = p.force_offset;
+    return true;
+  }
+  const double rate = closed.deflection_change / (mean_velocity * closed.time);
+  *force = PartlyClosedForce(p, closed.time / dt,
+                             p.contact_stiffness * closed.deflection_integral / closed.time,
+                             p.bristle_damping * std::max(rate, 0.0) + p.viscous, velocity_free,
+                             dt_inverse_mass);
+  return true;
 }
 
 }  // namespace
 
 double ImplicitStateForce(const LawParameters& p, const LawInput& in, double z,
                           double velocity_free, double dt_inverse_mass, double dt) {
-  if (p.contact_play > 0) return ForceWithPlay(p, in, z, velocity_free, dt_inverse_mass, dt);
-  const double elastic = p.contact_stiffness * z + p.force_offset;
+  const double elastic = p.contact_stiffness * ElasticDeflection(p, z) + p.force_offset;
   const double v_trial = velocity_free - dt_inverse_mass * elastic;  // damping off
+  double force;
+  if (p.contact_play > 0 && ClosesOrOpens(p, in, z, 0.5 * (in.velocity + v_trial),
+                                          velocity_free, dt_inverse_mass, dt, &force)) {
+    return force;
+  }
+  // (with a play: closed throughout, or no mean motion)
   const double speed = std::max(std::fabs(in.velocity), std::fabs(v_trial));
   const double direction = v_trial != 0 ? Sign(v_trial) : Sign(in.velocity);
+  if (PlayOpen(p, z, direction)) return p.force_offset;  // (no play: never)
   if (speed == 0) return elastic;
   const double damping = DampingCoefficient(p, in, z, direction, speed);
   if (damping <= 0) return StateForce(p, in, z);
-  // F = elastic + damping (v + v_next)/2 with v_next = velocity_free - dt_inverse_mass F.
-  return (elastic + 0.5 * damping * (in.velocity + velocity_free)) /
-         (1.0 + 0.5 * damping * dt_inverse_mass);
+  // F = elastic + damping v_mid with v_next = velocity_free - dt_inverse_mass F and v_mid the
+  // trapezoidal mean (v + v_next)/2 -- with a play, v_next (PartlyClosedForce says why).
+  const double end_weight = p.contact_play > 0 ? 1.0 : 0.5;
+  return (elastic + damping * ((1.0 - end_weight) * in.velocity + end_weight * velocity_free)) /
+         (1.0 + end_weight * damping * dt_inverse_mass);
 }
 
 double StickSlipForce(const LawParameters& p, const LawInput& in, double stick_force) {

@@ -182,6 +182,11 @@ inline double StribeckLevel(const LawParameters& p, const LawInput& in) {
   return coulomb * VelocityShape(p, in.velocity);
 }
 
+// The laws with bristles, which alone take a play (contact_play): dahl, dupont, lugre.
+inline bool TakesContactPlay(Law law) {
+  return law == Law::kDahl || law == Law::kDupont || law == Law::kLuGre;
+}
+
 // A play in the contact (contact_play = b > 0; dahl, dupont, lugre): the state z is the whole
 // deflection, play included, and the bristles deflect by the part beyond b/2 on either side,
 // z_e = dz(z, b/2). Inside the play the contact is open: z follows the motion (dz/dt = v) and

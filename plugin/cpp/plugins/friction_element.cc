@@ -27,8 +27,8 @@ const char* const kAttributes[] = {
     kLaw, kMu, kNormal, kNormalSensor, kNormalGain, kNormalComponent, kContactGeom1,
     kContactGeom2, kStiffness, kAlpha, kBreakaway, kSigma1, kViscous, kStaticRatio,
     kStribeckVelocity, kAsymmetry, kRipple, kRippleWavelength, kRipplePhase, kNormalModulation,
-    kModulationFrequency, kModulationPhase, kForceOffset, kContactPlay, kSensorLag, kGmsStiffness, kGmsWeight,
-    kGmsRelaxationTime, kPositionMapKnots, kPositionMapFactors, kPositionMapPeriod,
+    kModulationFrequency, kModulationPhase, kForceOffset, kContactPlay, kSensorLag, kGmsStiffness,
+    kGmsWeight, kGmsRelaxationTime, kPositionMapKnots, kPositionMapFactors, kPositionMapPeriod,
     kVelocityMapKnots, kVelocityMapFactors, kNormalFromCtrl};
 
 constexpr char kPlugin[] = "vibrofriction.friction";
@@ -153,7 +153,7 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
   if (p.contact_play < 0) {
     return RejectAttribute(kPlugin, kContactPlay, p.contact_play, "must be >= 0 (m)");
   }
-  if (p.contact_play > 0 && (p.law == Law::kCoulomb || p.law == Law::kGms)) {
+  if (p.contact_play > 0 && !TakesContactPlay(p.law)) {
     return RejectAttribute(kPlugin, kContactPlay, p.contact_play,
                            "is a play before the bristles, which law coulomb and law gms do not "
                            "have; use law dahl, dupont or lugre, or remove contact_play");

@@ -33,6 +33,7 @@ from ..rigs import rig as rig_module
 from ..data.datasets import Dataset
 from ..errors import InputError
 from ..params import LAWS, FrictionParameters
+from ..vocabulary import TERMS_BY_NAME
 from .analysis import ResidualAnalysis, analyse
 from .fit import FitResult, Problem
 from .model import EFFECT_INTERNALS, INVERSE_EFFECTS, RIG_EFFECTS, Model, Scales
@@ -47,6 +48,7 @@ CANDIDATE_EVALUATIONS_PER_PARAMETER = 20
 _DEFLECTION_SCAN = np.logspace(-6, 0, 25)
 _STRIBECK_SCAN = np.logspace(-2, 0.5, 11)  # v_s / rms(v_r)
 _PLAY_SCAN = np.logspace(-3, math.log10(0.5), 13)  # play width / the record's travel
+_PLAY_LAWS = TERMS_BY_NAME["contact_play_m"].laws  # the laws with bristles
 
 ProgressFn = Callable[[str], None]
 
@@ -175,9 +177,9 @@ def _not_applicable(record: Record, law: str, declared: Sequence[str]) -> dict[s
     elif not record.vibrating and record.drive_velocity_m_per_s == 0:
         out["drive_damping"] = ("identical to viscous here: fixed support and no drive spring, "
                                 "so h_d (v_d - xdot) = -h_d v_r")
-    if law in ("coulomb", "gms"):
+    if law not in _PLAY_LAWS:
         out["contact_play"] = (f"a play before the bristles needs a law with bristles "
-                               f"(dahl, dupont, lugre), not {law}")
+                               f"({', '.join(_PLAY_LAWS)}), not {law}")
     if np.ptp(record.relative_position_m) < 2 * _min_wavelength(record):
         out["position_ripple"] = "the record does not travel two ripple wavelengths"
     for effect in declared:
@@ -201,9 +203,10 @@ def check_law_and_effects(law: str, declared: Sequence[str],
         where = f" ({'; '.join(notes)})" if notes else ""
         raise InputError(f"unknown effect(s) {', '.join(unknown)}{where}; the vocabulary is "
                          f"{', '.join(effects)}")
-    if "contact_play" in declared and law in ("coulomb", "gms"):
+    if "contact_play" in declared and law not in _PLAY_LAWS:
         raise InputError(f"effect contact_play is a play before the bristles, which law {law} "
-                         "does not have; use --law dahl, dupont or lugre, or leave it out")
+                         f"does not have; use --law with one of {', '.join(_PLAY_LAWS)}, or "
+                         "leave it out")
 
 
 def check_identifiable(dataset) -> None:

@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from ..errors import InputError
-from ..rigs.sweep import DaskUnavailable, dask_map, joint_convergence  # noqa: F401 (re-exported)
+from ..rigs.sweep import DaskUnavailable, joint_convergence  # noqa: F401 (re-exported)
 from .config import STATIC_TIMESTEP_S, StudyConfig, friction_for, study_timestep
 from .runner import DEFAULT_CHUNK_SIZE, Case, Progress, run_points
 
