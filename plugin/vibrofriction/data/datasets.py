@@ -255,6 +255,14 @@ class Dataset:
 
 # ---------------------------------------------------------------------------------- numerics
 
+def white_noise_sd(values: np.ndarray) -> float:
+    """White-noise standard deviation from the median absolute third difference (0 for a
+    noise-free smooth signal): the third difference of white noise has variance 20 sigma^2,
+    a signal smooth on the sample scale adds little, the median ignores sharp transitions."""
+    d3 = np.diff(np.asarray(values, dtype=float), 3)
+    return 1.4826 * float(np.median(np.abs(d3 - np.median(d3)))) / math.sqrt(20.0)
+
+
 def smoothed_derivative(values: np.ndarray, time_s: np.ndarray,
                         half_window: int = DERIVATIVE_HALF_WINDOW_SAMPLES) -> np.ndarray:
     """d(values)/dt from a least-squares parabola through 2*half_window+1 samples.

@@ -37,7 +37,8 @@ from ..rigs import rig as rig_module
 from ..data.datasets import Dataset, smoothed_derivative
 from ..errors import InputError
 from ..params import FrictionParameters, RigParameters
-from .replay import (SampleGrid, contact_at_rest, grid_steps, noise_sd,
+from .start import starts_in_motion
+from .replay import (SampleGrid, contact_at_rest, contact_sliding, grid_steps, noise_sd,
                      speed_quantiles, substeps_of_record, uniform_times)
 from ..vocabulary import FRICTION_TERMS
 
@@ -270,6 +271,8 @@ class MachineReplay(SampleGrid):
     lagged_sensor: str = "friction"
     # the timestep scan judges the simulator's error in the fit's channel sd (see simulation.py)
     timestep_in_fit_weights: bool = True
+    # the body slides at the first sample: the contact starts at its steady sliding state
+    starts_in_motion: bool = False
 
     @property
     def sample_interval_s(self) -> float:
@@ -365,7 +368,12 @@ class MachineReplay(SampleGrid):
             # held, pending, last position, last filtered position, next sample time, started
             data.plugin_state[adr:adr + 6] = [0.0, 0.0, q0 - v0 * T, q0 - 1.5 * v0 * T,
                                               0.0, 1.0]
-        contact_at_rest(model, data, friction, self.initial_friction_N, self.rig.normal_force_N)
+        if self.starts_in_motion:
+            contact_sliding(model, data, friction, float(data.qvel[joint.dofadr[0]]),
+                            self.rig.normal_force_N, self.initial_position_m)
+        else:
+            contact_at_rest(model, data, friction, self.initial_friction_N,
+                            self.rig.normal_force_N)
         return rig_module.full_state(model, data)
 
     def outputs(self, model: mujoco.MjModel, rig: RigParameters, sensordata: np.ndarray,
@@ -517,16 +525,21 @@ def prepare_machine_replay(dataset: Dataset, *, substeps: int | None = None) -> 
     normal = scene.constant_normal_N or 1.0
     rig = RigParameters(mass_kg=mass_start, normal_force_N=normal, drive_velocity_m_per_s=1.0)
     v_scale = math.sqrt(float(np.mean(velocity ** 2))) or 1e-3
+    # the start's velocity: the measured velocity's first samples where there is one
+    measured_velocity = velocity if "velocity_m_per_s" in columns else None
+    velocity0 = float(velocity[0]) if measured_velocity is not None else \
+        float(smoothed_derivative(position[:32], t[:32])[0])
     return MachineReplay(
         name=dataset.name, scene=scene, time_s=t, substeps=substeps,
         timestep_s=sample_dt / substeps, control=_control(scene, inputs, len(t), substeps),
         measured=measured, noise={c: noise_sd(v) for c, v in measured.items()}, rig=rig,
         mass_known=dataset.metadata.mass_kg is not None,
         initial_position_m=float(position[0]),
-        initial_velocity_m_per_s=float(smoothed_derivative(position[:32], t[:32])[0]),
+        initial_velocity_m_per_s=velocity0,
         initial_friction_N=float(force[0]), level_N=level, velocity_scale_m_per_s=v_scale,
         inputs=inputs, timestep_from_record=from_record,
-        normal_force_known=scene.constant_normal_N is not None)
+        normal_force_known=scene.constant_normal_N is not None,
+        starts_in_motion=starts_in_motion(t, position, measured_velocity))
 
 
 __all__ = ["BUNDLED", "closed_loop_errors", "MachineReplay", "MachineScene", "machine", "prepare_machine_replay"]

@@ -22,7 +22,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 from scipy.signal import lfilter
 
-from ..laws.run import run_law
+from ..laws.run import run_law, steady_deflection_m
 from ..params import LIMITS, FrictionParameters
 from .record import Record
 
@@ -373,8 +373,13 @@ class Model:
             normal = normal * (1.0 + modulation * np.sin(record.grid_support_phase_rad() + phase))
         position = record.grid_position_m if (values.get("position_ripple", 0.0) or
                                               self.position_map_knots_m) else None
+        z0 = 0.0
+        if record.starts_in_motion:  # sliding when the record starts: the steady state there
+            z0 = steady_deflection_m(
+                friction, record.grid_velocity_m_per_s[0], normal_force_N=float(normal[0]),
+                position_m=None if position is None else float(position[0]))
         run = run_law(friction, record.grid_time_s, record.grid_velocity_m_per_s,
-                      normal_force_N=normal, position_m=position)
+                      normal_force_N=normal, position_m=position, initial_deflection_m=z0)
         lag = values.get("sensor_lag_s", 0.0)
         if lag > 0 and record.stride > 1 and record.target == "friction":
             # Lag on the substep ends (every second grid point): a contact transition is

@@ -24,6 +24,7 @@ from scipy.signal import butter, sosfiltfilt
 
 from ..data.datasets import Dataset, DatasetError, smoothed_derivative
 from ..errors import InputError
+from .start import starts_in_motion
 
 # Fraction of a substep left between the midpoint-carrying point and the substep's end.
 _END_GAP = 1.0e-3
@@ -60,6 +61,8 @@ class Record:
     grid_normal_force_N: np.ndarray
     stride: int
     uniform_dt_s: float | None  # sample interval when uniform
+    # the body slides at the first sample: state laws start at their steady sliding state
+    starts_in_motion: bool = False
 
     @property
     def n(self) -> int:
@@ -137,6 +140,8 @@ def prepare(dataset: Dataset, *, substeps: int | None = None,
     if not state_law:
         substeps = 0
     grid = _law_grid(t, relative_velocity, relative_position, normal, substeps)
+    in_motion = starts_in_motion(
+        t, position, velocity if "velocity_m_per_s" in columns else None)
     return Record(
         name=dataset.name, time_s=t, target_N=target_N, target=target,
         body_velocity_m_per_s=velocity, relative_velocity_m_per_s=relative_velocity,
@@ -144,7 +149,8 @@ def prepare(dataset: Dataset, *, substeps: int | None = None,
         normal_force_N=normal, normal_force_known=normal_known, mass_kg=meta.mass_kg,
         drive_velocity_m_per_s=float(meta.drive_velocity_m_per_s or 0.0),
         vibration_frequency_Hz=frequency, support_phase_offset_rad=phase_offset,
-        vibrating=vibrating, lowpass_Hz=lowpass_Hz, uniform_dt_s=uniform_dt, **grid)
+        vibrating=vibrating, lowpass_Hz=lowpass_Hz, uniform_dt_s=uniform_dt,
+        starts_in_motion=in_motion, **grid)
 
 
 def _law_grid(t, velocity, position, normal, substeps: int) -> dict:

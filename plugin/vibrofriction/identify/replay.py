@@ -47,9 +47,11 @@ from scipy.linalg import LinAlgError, solve_banded, solveh_banded
 from scipy.sparse import coo_matrix, csr_matrix
 
 from ..rigs import rig as rig_module
-from ..data.datasets import Dataset, smoothed_derivative
+from ..data.datasets import Dataset, smoothed_derivative, white_noise_sd
 from ..errors import InputError
+from ..laws.run import steady_deflection_m
 from ..params import FrictionParameters, RigParameters
+from .start import starts_in_motion
 
 # Columns the replay predicts (in this order when present) and the scene sensor of each.
 OUTPUT_CHANNELS = ("position_m", "velocity_m_per_s", "acceleration_m_per_s2", "drive_force_N",
@@ -181,6 +183,20 @@ def contact_at_rest(model: mujoco.MjModel, data: mujoco.MjData, friction: Fricti
             friction, force_N, normal_force_N)
 
 
+def contact_sliding(model: mujoco.MjModel, data: mujoco.MjData, friction: FrictionParameters,
+                    relative_velocity_m_per_s: float, normal_force_N: float,
+                    relative_position_m: float) -> None:
+    """The law's steady sliding deflection at this relative velocity in ``data.act`` (every
+    element's for gms); nothing for Coulomb."""
+    if friction.law == "coulomb" or not model.na:
+        return
+    actuator = model.actuator("friction")
+    z = np.atleast_1d(steady_deflection_m(friction, relative_velocity_m_per_s,
+                                          normal_force_N=normal_force_N,
+                                          position_m=relative_position_m))
+    data.act[actuator.actadr[0]:actuator.actadr[0] + len(z)] = z
+
+
 def place_rig(model: mujoco.MjModel, data: mujoco.MjData, table_m: float,
               table_velocity_m_per_s: float, slider_m: float, slider_velocity_m_per_s: float,
               drive_end_m: float, drive_velocity_m_per_s: float) -> None:
@@ -242,6 +258,9 @@ class RigReplay(SampleGrid):
     # The side the spring pulls on at the first sample (sign of the force holding the slider,
     # 0 when it is within the force's noise): where a backlash candidate's play starts.
     initial_play_side: float = 0.0
+    # the slider slides on its support at the first sample: the contact starts at its steady
+    # sliding state there (``start.starts_in_motion``), not holding a load at rest
+    starts_in_motion: bool = False
 
     def backlash_centre_m(self, backlash_m: float) -> float:
         """Where a play of ``backlash_m`` is centred in this replay's coordinates (the drive
@@ -449,7 +468,11 @@ class RigReplay(SampleGrid):
                   self.initial_drive_end_m, self.rig.drive_velocity_m_per_s)
         normal = self.control[0, FRICTION_CTRL] if self.normal_force_from_record else \
             self.rig.normal_force_N
-        contact_at_rest(model, data, friction, self.initial_friction_N, normal)
+        if self.starts_in_motion:
+            contact_sliding(model, data, friction, v0 - self.initial_support_velocity_m_per_s,
+                            normal, self.initial_position_m - self.initial_support_position_m)
+        else:
+            contact_at_rest(model, data, friction, self.initial_friction_N, normal)
         return rig_module.full_state(model, data)
 
 
@@ -717,7 +740,9 @@ def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigRepla
         initial_drive_end_m=drive_end0, initial_friction_N=friction0, vibrating=vibrating,
         timestep_from_record=from_record, sliding_steps_per_sample=sliding,
         support_still=still, normal_force_from_record=normal_from_record,
-        initial_play_side=play_side)
+        initial_play_side=play_side, starts_in_motion=starts_in_motion(
+            t, position, columns["velocity_m_per_s"] if "velocity_m_per_s" in columns
+            else None))
 
 
 # Stick phases (``stick_phase_steps``): between two slips (speed relative to the support above
@@ -1095,12 +1120,6 @@ def noise_sd(values: np.ndarray) -> float:
     """
     span = float(np.ptp(values)) or float(np.max(np.abs(values))) or 1.0
     return max(white_noise_sd(values), NOISE_FLOOR_OF_RANGE * span)
-
-
-def white_noise_sd(values: np.ndarray) -> float:
-    """``noise_sd`` without its floor (0 for a noise-free smooth signal)."""
-    d3 = np.diff(np.asarray(values, dtype=float), 3)
-    return 1.4826 * float(np.median(np.abs(d3 - np.median(d3)))) / math.sqrt(20.0)
 
 
 __all__ = ["RigReplay", "Replayer", "prepare_replay", "noise_sd", "OUTPUT_CHANNELS",

@@ -11,6 +11,6 @@ The laws are the plugin's C++ code (plugin/cpp/laws/friction_law.cc); this packa
 The MuJoCo models that use the laws are in ``vibrofriction.rigs`` and ``vibrofriction.robots``;
 the independent scipy oracle (``vibrofriction.oracle``) imports nothing of this package.
 """
-from .run import LawRun, kinematic_mean_ratio, run_law
+from .run import LawRun, kinematic_mean_ratio, run_law, steady_deflection_m
 
-__all__ = ["LawRun", "run_law", "kinematic_mean_ratio"]
+__all__ = ["LawRun", "run_law", "kinematic_mean_ratio", "steady_deflection_m"]

@@ -100,6 +100,38 @@ def run_law(friction: FrictionParameters, time_s, relative_velocity_m_per_s, *,
                   element_deflection_m=deflection)
 
 
+# Travel of the pre-roll that puts a law at its steady sliding state, in units of its
+# deflection scale level/stiffness: the constant-velocity step is exact, so a few steps span it;
+# Dahl with alpha > 1 approaches its limit algebraically (1 - z/z_max ~ travel^(-1/(alpha-1))),
+# so the travel is long (alpha 3.5: 2.5e-4 of the level short; alpha <= 1 and the other laws: exact).
+STEADY_TRAVEL_DEFLECTIONS = 1e9
+
+
+def steady_deflection_m(friction: FrictionParameters, relative_velocity_m_per_s: float, *,
+                        normal_force_N: float = PAPER_NORMAL_FORCE_N,
+                        position_m: float | None = None) -> float | tuple[float, ...]:
+    """The deflection z of the law sliding steadily at ``relative_velocity_m_per_s`` (law gms:
+    one per element), found by the plugin's own law: a long slide at that velocity (the state
+    a record that starts in motion had when it started). 0 for Coulomb or a body at rest."""
+    count = len(friction.gms_stiffness_N_per_m) if friction.law == "gms" else 1
+    v = float(relative_velocity_m_per_s)
+    if friction.law == "coulomb" or v == 0.0 or normal_force_N <= 0.0:
+        return tuple([0.0] * count) if friction.law == "gms" else 0.0
+    if friction.law == "gms":
+        stiffness = min(friction.gms_stiffness_N_per_m)
+    else:
+        stiffness = friction.contact_stiffness_N_per_m
+    level = friction.friction_coefficient * max(1.0, friction.static_ratio) * normal_force_N
+    travel_m = STEADY_TRAVEL_DEFLECTIONS * level / stiffness + friction.contact_play_m
+    t = np.linspace(0.0, travel_m / abs(v), 5)
+    position = None if position_m is None else np.full(t.shape, float(position_m))
+    run = run_law(friction, t, np.full(t.shape, v), normal_force_N=float(normal_force_N),
+                  position_m=position)
+    if friction.law == "gms":
+        return tuple(float(z) for z in run.element_deflection_m[-1])
+    return float(run.deflection_m[-1])
+
+
 def _ptr(array: np.ndarray | None):
     return None if array is None else array.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
 
