@@ -230,7 +230,8 @@ def test_an_existing_out_folder_is_replaced_as_a_whole(tmp_path, monkeypatch, ca
     (tmp_path / "out" / "stale.png").write_text("from an earlier run")
     assert cli.main(["identify", "good.csv", "--out", "out", "--method", "inverse",
                      "--no-figures"]) == 0
-    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["report.json", "report.md"]
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["report.json", "report.md",
+                                                                  "series_good.csv"]
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
     capsys.readouterr()
     with pytest.raises(SystemExit):

@@ -158,12 +158,19 @@ def test_cli_writes_the_report(records, tmp_path, capsys) -> None:
     report = json.loads((out / "report.json").read_text())
     assert list(report) == ["schema_version", "versions", "law", "method", "method_reason",
                             "baseline", "candidates", "selected_effects", "final",
-                            "residual_peaks_Hz", "ringing_after_reversals"]
+                            "residual_peaks_Hz", "ringing_after_reversals", "diagnostics",
+                            "series"]
+    assert report["series"] == {"train": "series_asymmetry_train.csv",
+                                "validation": ["series_asymmetry_heldout.csv"]}
     assert report["method"] == "inverse" and "--method inverse" in report["method_reason"]
     assert report["law"] == "lugre"
     assert report["selected_effects"] == ["asymmetry"]
+    assert set(report["baseline"]) == {"parameters", "train", "validation"}
+    # the final block also says what the data inform and where a sample dominates
+    assert set(report["final"]) == {"parameters", "train", "validation", "identifiability",
+                                    "presliding", "residual_outliers",
+                                    "friction_coefficient_unit"}
     for block in (report["baseline"], report["final"]):
-        assert set(block) == {"parameters", "train", "validation"}
         assert set(block["train"]) == {"rmse_N", "relerr_pct"}
         assert [v["dataset"] for v in block["validation"]] == ["asymmetry_heldout"]
         assert set(block["validation"][0]) == {"dataset", "rmse_N", "relerr_pct"}
@@ -175,7 +182,8 @@ def test_cli_writes_the_report(records, tmp_path, capsys) -> None:
     assert report["final"]["parameters"]["asymmetry"] == pytest.approx(0.1, rel=0.03)
     text = (out / "report.md").read_text()
     assert "## Error before and after" in text and "asymmetry" in text and "±" in text
-    for name in ("fit.png", "residual_vs_regressor.png", "spectrum.png"):
+    for name in ("fit.png", "residual_vs_regressor.png", "spectrum.png",
+                 "series_asymmetry_train.png", "series_asymmetry_heldout.png"):
         assert (out / name).stat().st_size > 1000
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temp folder left
     err = capsys.readouterr().err

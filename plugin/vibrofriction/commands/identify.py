@@ -2,7 +2,8 @@
 
 Fits the friction law (the plugin's C++ code) to a measured record, traces the residual to the
 effects of the vocabulary, selects those the data justify and writes report.json
-(docs/interfaces.md), report.md and figures to DIR. Progress goes to stderr.
+(docs/interfaces.md), report.md, the final model's series of every record
+(series_<dataset>.csv) and figures to DIR. Progress goes to stderr.
 """
 from __future__ import annotations
 
@@ -26,7 +27,8 @@ HELP = ("fit a friction law to a measured record (dataset format), trace the res
         "missing effects (viscous, stribeck, asymmetry, position_ripple, "
         "normal_force_modulation, drive_damping, sensor_lag, force_offset; by simulation also "
         "backlash; on the inverse path also position_map, velocity_map), select those the "
-        "data justify, and write report.json, report.md and figures")
+        "data justify, and write report.json, report.md, each record's measured, predicted "
+        "and residual series and figures")
 
 # Sidecar keys --set may supply or override (docs/dataset-format.md).
 _METADATA_KEYS = ("mass_kg", "normal_force_N", "drive_stiffness_N_per_m",
@@ -51,9 +53,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="effects known in advance, fitted in the baseline (e.g. "
                              "viscous,force_offset for the EMPS benchmark's IDIM-LS model)")
     parser.add_argument("--lowpass", type=float, default=None, metavar="HZ",
-                        help="parallel zero-phase low-pass (4th-order Butterworth) on the "
-                             "measured force and the model output; the position is filtered "
-                             "before differentiation (IDIM practice); off by default")
+                        help="inverse path: zero-phase 4th-order Butterworth at HZ on the "
+                             "measured force and, in parallel, on the model's predicted force "
+                             "(the fit and every error are of the filtered signals); a record "
+                             "without velocity_m_per_s also has its position filtered before "
+                             "it is differentiated (IDIM practice); a measured velocity or "
+                             "acceleration is used unfiltered; off by default")
     parser.add_argument("--min-improvement", type=float, default=MIN_IMPROVEMENT,
                         metavar="FRACTION",
                         help=f"least relative drop of the training RMSE for an effect to be "
@@ -88,7 +93,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="inverse path: timestep of the MuJoCo rig replay of the final "
                              "model (records of a spring-driven rig only; default 1e-6); the "
                              "simulation path chooses its own (see --substeps)")
-    parser.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    parser.add_argument("--no-figures", action="store_true",
+                        help="skip the PNG figures (each record's series_<dataset>.csv is "
+                             "still written)")
     parser.add_argument("--json", dest="json_path", type=Path, default=None, metavar="FILE",
                         help="also write report.json to FILE (outside DIR); DIR and FILE are "
                              "written together or, on any error, neither")

@@ -65,13 +65,20 @@ class Problem:
         return self.train.lowpass(model.predict(self.train, q)) - self.measured
 
     def metrics(self, model: Model, values: Mapping[str, float]) -> tuple[Metrics, list[Metrics]]:
-        train = _metrics(self.train.name, self.train.lowpass(
-            model.predict_values(self.train, values)), self.measured)
+        train, held = self.predicted(model, values)
+        return (_metrics(self.train.name, train, self.measured),
+                [_metrics(record.name, predicted, measured) for record, predicted, measured
+                 in zip(self.validation, held, self.validation_measured)])
+
+    def predicted(self, model: Model, values: Mapping[str, float]
+                  ) -> tuple[np.ndarray, list[np.ndarray]]:
+        """The predicted measured force (after the record's low-pass) on the training record
+        and on each held-out record, as ``metrics`` compares it with the measured one."""
+        train = self.train.lowpass(model.predict_values(self.train, values))
         held = []
-        for record, measured in zip(self.validation, self.validation_measured):
+        for record in self.validation:
             mass = record.mass_kg if record.mass_kg is not None else self.train.mass_kg
-            predicted = record.lowpass(model.predict_values(record, values, mass_kg=mass))
-            held.append(_metrics(record.name, predicted, measured))
+            held.append(record.lowpass(model.predict_values(record, values, mass_kg=mass)))
         return train, held
 
     def fit(self, model: Model, start: Mapping[str, float], *, max_nfev: int | None = None,

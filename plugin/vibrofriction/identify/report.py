@@ -11,12 +11,15 @@ import numpy as np
 from ..data.datasets import stage_folder
 from ..params import RigParameters
 from ..provenance import json_text
+from .identifiability import inverse_diagnostics
+from . import residual_diagnostics
 from .fit import FitResult
 from .model import EFFECT_FIELDS, INVERSE_EFFECTS, MAP_EFFECTS
 from .selection import Identification
+from .series import inverse_series, listing as series_listing, write_series
 
 REPORT_FILES = ("report.json", "report.md", "fit.png", "residual_vs_regressor.png",
-                "spectrum.png")
+                "spectrum.png", "diagnostics.png")
 
 
 # ------------------------------------------------------------------------------------ json
@@ -56,12 +59,18 @@ def report_json(result: Identification) -> dict[str, Any]:
         "baseline": block(result.baseline),
         "candidates": candidates,
         "selected_effects": list(result.selected),
-        "final": block(result.final),
+        # (+ identifiability of each value, presliding, residual outliers: identifiability.py)
+        "final": {**block(result.final), **inverse_diagnostics(result).as_json()},
         "residual_peaks_Hz": [round(f, 6) for f in result.final_analysis.spectrum.peaks_Hz]
         if result.final_analysis.spectrum else [],
         # a damped oscillation after the reversals that the final model leaves (null: none)
         "ringing_after_reversals": result.final_analysis.ringing.as_dict()
         if result.final_analysis.ringing else None,
+        # what the final residual follows, and the verdict against its noise floor
+        # (residual_diagnostics.py)
+        "diagnostics": residual_diagnostics.for_identification(result).as_dict(),
+        # the final model's measured, predicted and residual force of every record (series.py)
+        "series": series_listing(result.train.name, [v.name for v in result.validation]),
     }
 
 
@@ -78,11 +87,14 @@ def report_markdown(result: Identification, rig_replay: dict | None = None) -> s
     """The report.md of an identification: one section writer after another."""
     lines: list[str] = []
     lines += _header_lines(result)
+    diagnosis = residual_diagnostics.for_identification(result)
+    lines += ["", residual_diagnostics.verdict_sentence(diagnosis)]
     lines += _error_lines(result)
     lines += _selected_lines(result)
     lines += _rounds_lines(result)
     lines += _parameter_lines(result)
     lines += _residual_lines(result)
+    lines += residual_diagnostics.markdown_lines([diagnosis])
     lines += _mujoco_lines(result, rig_replay)
     lines += _closing_lines()
     return "\n".join(lines)
@@ -109,8 +121,9 @@ def _header_lines(r: Identification) -> list[str]:
     ]
     if r.settings.get("lowpass_Hz"):
         lines.append(f"- parallel zero-phase low-pass at {r.settings['lowpass_Hz']:g} Hz on the "
-                     "measured force and on the model output (position filtered before "
-                     "differentiation); errors are of the filtered signals")
+                     "measured force and on the model output (a position without a measured "
+                     "velocity is filtered before it is differentiated; a measured velocity or "
+                     "acceleration is used unfiltered); errors are of the filtered signals")
     return lines
 
 
@@ -127,6 +140,7 @@ def _error_lines(r: Identification) -> list[str]:
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
     lines += ["", "Cells: RMSE (relative error 100 ||y - y_hat|| / ||y||) of the measured "
               f"{record.target} force.", ""]
+    lines += inverse_diagnostics(r).outlier_lines({f"{record.target}_force_N": "N"})
     return lines
 
 
@@ -193,13 +207,15 @@ def _parameter_lines(r: Identification) -> list[str]:
               "1-sigma from the Jacobian at the optimum, s^2 (J^T J)^-1 with s^2 = RSS/(n - k), "
               "inflated by n/n_eff for the residual's autocorrelation "
               f"(n = {r.final.n}, n_eff = {r.final.n_eff:.0f}).", "",
-              "| parameter | baseline | final |", "|---|---|---|"]
+              "| parameter | baseline | final | informed (final) |", "|---|---|---|---|"]
+    informed = inverse_diagnostics(r)
     names = list(dict.fromkeys([*r.baseline.values, *r.final.values]))
     for name in names:
         before = _pm(r.baseline, name) if name in r.baseline.values else ""
         after = _pm(r.final, name) if name in r.final.values else ""
-        lines.append(f"| {name} | {before} | {after} |")
-    return lines
+        lines.append(f"| {informed.label(name)} | {before} | {after} | "
+                     f"{informed.flag(name)} |")
+    return lines + informed.parameter_notes()
 
 
 def _residual_lines(r: Identification) -> list[str]:
@@ -265,7 +281,15 @@ def _closing_lines() -> list[str]:
               "- `fit.png`: measured vs model, baseline and final",
               "- `residual_vs_regressor.png`: baseline and final residual against the regressor "
               "that exposed each selected effect",
-              "- `spectrum.png`: residual spectra (Welch) with the noise floor and peaks", ""]
+              "- `spectrum.png`: residual spectra (Welch) with the noise floor and peaks",
+              "- `diagnostics.png`: the share of the final residual's variance each regressor "
+              "carries (red: significant)",
+              "- `series_<dataset>.png`, the training record's and each held-out record's: "
+              "the final model's prediction and residual, the whole record and a window of a "
+              "few vibration periods (or 5 % of the record) where the residual is largest", "",
+              "The series themselves are `series_<dataset>.csv` (report.json `series`): "
+              "time_s and the measured, predicted and residual (measured - predicted) force, "
+              "written with --no-figures too.", ""]
     lines += ["## Method", "",
               "Inverse model: the law (the plugin's C++ code via laws.run_law) is driven by the "
               "measured relative velocity (body minus support) along the record; the predicted "
@@ -379,9 +403,13 @@ def write_report(result: Identification, out_dir: str | os.PathLike, *,
     def write(tmp: Path) -> None:
         (tmp / "report.json").write_text(json_text(report_json(result)))
         (tmp / "report.md").write_text(report_markdown(result, rig_replay_result))
+        write_series(inverse_series(result), tmp, figures=figures,
+                     title=f"{result.law} + " + (", ".join(result.selected) or "nothing"))
         if figures:
             from .figures import write_figures
             write_figures(result, tmp)
+            residual_diagnostics.write_figure([residual_diagnostics.for_identification(result)],
+                                              tmp / "diagnostics.png")
 
     return write_folder(out_dir, write)
 

@@ -82,6 +82,9 @@ STALL_BAND = 1e-2
 # 10 evaluations took 25 evaluations to arrive at the same optimum as the first start).
 RACE_EVALUATIONS = 10
 RACE_RATIO = 3.0
+# The backward step's fit of the model without an effect starts at the current values: one
+# still this far above the RSS that would drop the effect after RACE_EVALUATIONS is abandoned.
+DROP_RACE_RATIO = 1.25
 # Forward-difference step in the internal coordinates (O(1) scaled). At 1e-4 a fit stopped short
 # in a declared Stribeck curve's narrow valley (a noise-free position-only LuGre record: r 1.255
 # for 1.3); at 1e-6 the step grid's roughness misled the hidden-Stribeck lab record's fit (v_s
@@ -91,6 +94,9 @@ _FD_STEP = 1e-5
 # units of each channel's noise sd).
 TIMESTEP_TOLERANCE = 0.1
 BASELINE_EVALUATIONS = 60
+# A long fit says how it stands at least this often (seconds): its evaluations, its best
+# weighted RSS and, from the time an evaluation has taken, how long its budget can still run.
+HEARTBEAT_S = 25.0
 # The support "stands still" while its speed stays below this fraction of its peak.
 # Fractions of the still stage fitted in turn, each from the last one's values: the loading
 # before the first slip gives the contact's stiffness, the breakaway then its level (measured
@@ -165,6 +171,8 @@ class SimFit:
     nfev: int
     predicted: dict[str, np.ndarray]  # on the training record (measured + extra channels)
     at_bound: tuple[str, ...] = ()
+    # on each held-out record: its measured channels as ``validation``'s errors compare them
+    validation_predicted: tuple[dict[str, np.ndarray], ...] = ()
 
     @property
     def k(self) -> int:
@@ -236,6 +244,7 @@ class SimulationProblem:
         self.weights = {c: 1.0 / train.noise[c] for c in train.channels}
         self.floor = 0.0
         self.other_simulations = 0  # run on replays of its own (segmented, shooting)
+        self.say: ProgressFn | None = None  # progress lines while a fit runs (HEARTBEAT_S)
         # initial-state values fitted with the parameters (the training record's only)
         self.state: tuple[str, ...] = tuple(getattr(train, "estimated_state", ()))
         # named values of the scene fitted with the parameters (a machine's joint damping)
@@ -317,13 +326,26 @@ class SimulationProblem:
     # --------------------------------------------------------------------------------- fit
 
     def fit(self, model: Model, start: Mapping[str, float], max_nfev: int,
-            race: tuple[int, float] | None = None) -> SimFit | None:
+            race: tuple[int, float] | None = None, label: str = "fit") -> SimFit | None:
         """Least squares from ``start``; with ``race`` (evaluations, rss), None when the RSS
-        after that many evaluations is still above that rss."""
+        after that many evaluations is still above that rss. ``label`` names the fit in the
+        progress lines a long one writes."""
         q0 = model.internal(start)
         lo, hi = model.bounds()
         cache: dict[bytes, np.ndarray] = {}
         best = {"rss": math.inf, "q": np.array(q0, dtype=float), "stalled": 0, "nfev": 0}
+        began = time.monotonic()
+        last_said = [began]
+
+        def heartbeat() -> None:
+            now = time.monotonic()
+            if self.say is None or now - last_said[0] < HEARTBEAT_S or not best["nfev"]:
+                return
+            last_said[0] = now
+            per = (now - began) / best["nfev"]  # (its Jacobians' share included)
+            self.say(f"{label}: {best['nfev']} evaluations in {now - began:.0f} s, weighted "
+                     f"RSS {best['rss']:.6g}; at most {max_nfev - best['nfev']} more, "
+                     f"{per * (max_nfev - best['nfev']):.0f} s at {per:.1f} s each")
 
         def fun(q: np.ndarray) -> np.ndarray:
             key = np.asarray(q, dtype=float).tobytes()
@@ -342,10 +364,13 @@ class SimulationProblem:
                         raise _Stalled
                 if race and best["nfev"] == race[0] and best["rss"] > race[1]:
                     raise _Abandoned
+                heartbeat()
             return cache[key]
 
         def jac(q: np.ndarray) -> np.ndarray:
-            return self.jacobian(model, q, fun(q))
+            columns = self.jacobian(model, q, fun(q))
+            heartbeat()
+            return columns
 
         try:
             result = least_squares(fun, q0, jac=jac, bounds=(lo, hi), method="trf",
@@ -412,17 +437,18 @@ class SimulationProblem:
         rss = float(residual @ residual)
         channels = {c: _metrics(self.train.name, predicted[c], self.train.measured[c])
                     for c in self.train.channels}
-        held = []
+        held, held_predicted = [], []
         for replay, runner in zip(self.validation, self.held_runners):
             out = runner.run([self.case(model, values, replay)])[0]
             held.append(_metrics(replay.name, out[self.primary], replay.measured[self.primary]))
+            held_predicted.append(out)  # (kept for the report's series: no second replay)
         lo, hi = model.bounds()
         at_bound = tuple(p.name for p, x, a, b in zip(model.params, q, lo, hi)
                          if min(x - a, b - x) <= 1e-6 * max(1.0, abs(x)) and p.name in values)
         return SimFit(model=model, q=np.array(q), values=values, residual=residual, rss=rss,
                       n_eff=effective_samples(residual), train=channels[self.primary],
                       channels=channels, validation=held, nfev=nfev, predicted=predicted,
-                      at_bound=at_bound)
+                      at_bound=at_bound, validation_predicted=tuple(held_predicted))
 
 
 # ------------------------------------------------------------------------------ identify
@@ -466,6 +492,7 @@ def identify_by_simulation(train: Dataset, validation: Sequence[Dataset] = (), *
             at_held = [prepare_replay(d, substeps=steps) for d in validation]
         coarse = prepare_replay(train, substeps=steps // 2) if steps >= 2 else None
         problems.append(SimulationProblem(at, at_held, law, threads, coarse))
+        problems[-1].say = say
         return problems[-1]
 
     try:
@@ -567,13 +594,21 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
     # where its start came from; a stick-slip record's segmented stage is not run again)
     scales, starts, *carried = scan or _start(problem, law, fit_mass, declared)
     carried_origins = carried[0] if carried and len(carried[0]) == len(starts) else None
+    # A finer timestep after a baseline the coarser one did not resolve: the starts are that
+    # baseline's local optima, its basins already explored (the scan, the still stage, the
+    # Stribeck restarts): the best is fitted again, the others are carried as they stand for
+    # round 1's screening. (EMPS with a declared Stribeck curve: the whole baseline again at
+    # each refinement, on 2 busy cores, had refitted every start and restart: 200 s each.)
+    refining = carried_origins is not None
     model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law),
                         problem.state, problem.scene)
-    say(f"baseline: fitting {model.k} parameters ({', '.join(model.names)}) from the "
-        f"{len(starts)} best start(s) of a scan")
+    say(f"baseline: fitting {model.k} parameters ({', '.join(model.names)}) " + (
+        f"again from the coarser timestep's best fit ({len(starts) - 1} other local "
+        "optimum/optima carried as they stand)" if refining else
+        f"from the {len(starts)} best start(s) of a scan"))
     # Several starts: a record that measures little of the contact (position and drive force
     # only) has more than one basin in the contact stiffness.
-    if still is not None:
+    if still is not None and not refining:
         # The stage before the vibration shows the contact alone (pre-sliding, breakaway):
         # fitted at once and over growing windows of it, it gives two more starts (at once
         # was measured the better start of a position-only record with a hidden Stribeck
@@ -598,12 +633,17 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
             f"once and over {len(STILL_WINDOWS)} growing windows, give two more starts")
     fits: list[SimFit] = []
     origin: dict[int, str] = {}  # id(fit) -> where its start came from (for the report)
-    scanned = len(starts) - (2 if still is not None else 0)
+    scanned = len(starts) - (2 if still is not None and not refining else 0)
     for index, start in enumerate(starts):
+        if refining and index > 0:
+            fits.append(problem.result(model, model.internal(start)))
+            origin[id(fits[-1])] = carried_origins[index]
+            continue
         # (the still stage's starts are fitted in full: they stand for another basin)
         race = (RACE_EVALUATIONS, RACE_RATIO * min(f.rss for f in fits)) \
             if fits and index < scanned else None
-        fit = problem.fit(model, start, BASELINE_EVALUATIONS, race)
+        fit = problem.fit(model, start, BASELINE_EVALUATIONS, race,
+                          label=f"baseline: start {index + 1} of {len(starts)}")
         if fit is not None:
             fits.append(fit)
             origin[id(fit)] = carried_origins[index] if carried_origins else \
@@ -616,7 +656,8 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
     for index, (label, start) in enumerate(segmented):
         # (the first, multiple shooting's, is fitted in full; the others race it)
         race = (RACE_EVALUATIONS, RACE_RATIO * min(f.rss for f in fits)) if index else None
-        fit = problem.fit(model, start, BASELINE_EVALUATIONS, race)
+        fit = problem.fit(model, start, BASELINE_EVALUATIONS, race,
+                          label=f"baseline: from {label}")
         if fit is not None:
             fits.append(fit)
             origin[id(fit)] = label
@@ -624,12 +665,14 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
             (f"{problem.primary} relerr {fit.train.relerr_pct:.3g} % over the whole record "
              f"({fit.nfev} evaluations)" if fit is not None else
              f"abandoned after {RACE_EVALUATIONS} evaluations"))
-    if "stribeck" in model.effects:
+    if "stribeck" in model.effects and not refining:
         restarts = _stribeck_restarts(model, min(fits, key=lambda fit: fit.rss))
         for index, start in enumerate(restarts):
             # (the first is fitted in full: from the baseline's basin it is far at first)
             race = (RACE_EVALUATIONS, RACE_RATIO * min(f.rss for f in fits)) if index else None
-            fit = problem.fit(model, start, BASELINE_EVALUATIONS, race)
+            fit = problem.fit(model, start, BASELINE_EVALUATIONS, race,
+                              label=f"baseline: Stribeck restart {index + 1} of "
+                                    f"{len(restarts)}")
             if fit is not None:
                 fits.append(fit)
                 origin[id(fit)] = "a Stribeck restart"
@@ -640,7 +683,8 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
     baseline_start = origin.get(id(baseline), "the scan")
     if len(replay.channels) > 1:
         problem.reweight(baseline)
-        baseline = problem.fit(model, model.internal_values(baseline.q), BASELINE_EVALUATIONS)
+        baseline = problem.fit(model, model.internal_values(baseline.q), BASELINE_EVALUATIONS,
+                               label="baseline: refit with the channel sd from its residual")
         local = sorted([baseline] + [problem.result(model, fit.q) for fit in local[1:]],
                        key=lambda fit: fit.rss)
         baseline = local[0]
@@ -714,7 +758,8 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
         for c in leaders[:CONVERGED_LEADERS]:
             begun = time.monotonic() - c.seconds
             refit = problem.fit(c.fit.model, c.fit.model.internal_values(c.fit.q),
-                                BASELINE_EVALUATIONS)
+                                BASELINE_EVALUATIONS, label=f"round {index}: {c.effect} "
+                                                            "converged")
             if refit.rss < c.fit.rss:
                 c = _judge(problem, current, refit, c.effect, index, min_improvement,
                            bic_threshold, c.screen_delta_bic, begun)
@@ -789,7 +834,18 @@ def _drop_if_unneeded(problem: SimulationProblem, current: SimFit, effect: str,
                           scales, model.base, model.state, model.scene)
     start = {k: v for k, v in current.model.internal_values(current.q).items()
              if k in reduced.names}
-    without = problem.fit(reduced, start, BASELINE_EVALUATIONS)
+    # The RSS at which the test would drop the effect (at the current model's n_eff): a fit
+    # still DROP_RACE_RATIO times above it after RACE_EVALUATIONS evaluations is abandoned and
+    # the effect kept (EMPS: the model without its asymmetry, 1.8 times above, descending for
+    # 60 evaluations, 180 s, to stay there).
+    n_now = max(current.n_eff, 2.0)
+    needed = (current.rss + problem.floor) * math.exp(
+        ((current.k - reduced.k) * math.log(n_now) - bic_threshold) / n_now) - problem.floor
+    without = problem.fit(reduced, start, BASELINE_EVALUATIONS,
+                          (RACE_EVALUATIONS, DROP_RACE_RATIO * needed),
+                          label=f"{when}: the model without {effect}")
+    if without is None:
+        return current
     n_eff = max(without.n_eff, 2.0)
     keep_dbic = n_eff * math.log((current.rss + problem.floor) /
                                  (without.rss + problem.floor)) + \
@@ -1105,7 +1161,8 @@ def _candidate(problem: SimulationProblem, current: SimFit, base: SimFit, effect
     trials = [q_now + fraction * q_step for fraction in _STEP_FRACTIONS]
     residuals = problem.residuals(model, trials)
     best = int(np.argmin([float(r @ r) for r in residuals]))
-    fit = min((problem.fit(model, s, CANDIDATE_EVALUATIONS) for s in
+    fit = min((problem.fit(model, s, CANDIDATE_EVALUATIONS,
+                           label=f"round {index}: {effect}") for s in
                [model.internal_values(trials[best]), *others]), key=lambda f: f.rss)
     return _judge(problem, current, fit, effect, index, min_improvement, bic_threshold,
                   screen_dbic, started)

@@ -15,8 +15,11 @@ import numpy as np
 
 from ..params import RigParameters
 from ..provenance import json_text
+from .identifiability import simulation_diagnostics
+from . import residual_diagnostics
 from .model import EFFECT_FIELDS, SIMULATION_EFFECTS
 from .report import write_folder
+from .series import listing as series_listing, simulation_series, write_series
 from .simulation import MIN_SLIPS, SimFit, SimIdentification
 
 _UNITS = {"position_m": "m", "velocity_m_per_s": "m/s", "acceleration_m_per_s2": "m/s^2",
@@ -76,9 +79,15 @@ def report_json(result: SimIdentification) -> dict[str, Any]:
         "selected_effects": list(result.selected),
         "final": {**block(result.final),
                   "standard_errors": {k: _finite(v) if v is not None else None
-                                      for k, v in result.standard_errors.items()}},
+                                      for k, v in result.standard_errors.items()},
+                  # identifiability of each value, presliding, residual outliers
+                  **simulation_diagnostics(result).as_json()},
         "residual_peaks_Hz": list(result.residual_peaks_Hz),
         "skipped": dict(result.skipped),
+        # what the final residual follows and the verdict, per measured channel (the
+        # measured force's at the top level; residual_diagnostics.py)
+        "diagnostics": residual_diagnostics.simulation_json(
+            residual_diagnostics.for_simulation(result)),
         "settings": {**result.settings, "simulations": result.simulations,
                      "seconds": round(result.seconds, 3),
                      # F_N was the record's normal_force_N column, step by step (the
@@ -90,6 +99,8 @@ def report_json(result: SimIdentification) -> dict[str, Any]:
         **({"closed_loop": {"model": result.train.scene.name,
                             "first_sample": 50, **result.closed_loop}}
            if result.closed_loop is not None else {}),
+        # the final model's measured, predicted and residual channels of every record
+        "series": series_listing(result.train.name, [v.name for v in result.validation]),
     }
 
 
@@ -175,6 +186,7 @@ def _baseline_start_line(result: SimIdentification) -> str:
 def report_markdown(result: SimIdentification) -> str:
     r = result
     replay = r.train
+    diagnosis = residual_diagnostics.for_simulation(r)
     lines = [f"# Identification by simulation: {replay.name}", "",
              f"- law: **{r.law}**" + (f" + declared {', '.join(r.declared)}" if r.declared
                                       else ""),
@@ -209,6 +221,7 @@ def report_markdown(result: SimIdentification) -> str:
              "- mass: " + ("identified" if r.settings.get("fit_mass") else
                            f"{replay.rig.mass_kg:g} kg (sidecar)"),
              "- initial velocity: " + _initial_velocity_text(r),
+             "", residual_diagnostics.verdict_sentence(diagnosis[r.primary]),
              "", "## Error before and after", "",
              "| model | " + " | ".join(f"{c} relerr" for c in replay.channels) +
              "".join(f" | held-out `{v.name}`" for v in r.validation) + " |",
@@ -219,6 +232,8 @@ def report_markdown(result: SimIdentification) -> str:
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
     lines += ["", "relerr = 100 ||y - y_sim|| / ||y|| of each measured channel; held-out "
               f"columns are of {r.primary}.", ""]
+    informed = simulation_diagnostics(r)
+    lines += informed.outlier_lines(_UNITS)
     if r.closed_loop is not None:
         lines += _closed_loop_section(r)
     lines += ["## Selected effects", ""]
@@ -254,7 +269,8 @@ def report_markdown(result: SimIdentification) -> str:
     for effect, why in r.skipped.items():
         lines.append(f"| – | {effect} | – | – | – | not a candidate: {why} |")
     lines += ["", "## Final model", "",
-              "| parameter | value | standard error (fitted values) |", "|---|---|---|"]
+              "| parameter | value | standard error (fitted values) | informed |",
+              "|---|---|---|---|"]
     for name, value in parameters(r, r.final).items():
         if value is not None:
             error = r.standard_errors.get(name)
@@ -265,12 +281,20 @@ def report_markdown(result: SimIdentification) -> str:
                                          else "")
                 if name in r.final.at_bound:
                     cell += "; at its bound"
-            lines.append(f"| `{name}` | {value:.9g} | {cell} |")
+            lines.append(f"| `{name}`{informed.unit_note(name)} | {value:.9g} | {cell} | "
+                         f"{informed.flag(name)} |")
     lines += ["", "Standard errors: Gauss-Newton, s^2 (J^T J)^-1 at the optimum with the "
               "residual variance scaled by the sample count over the effective one; they "
-              "describe the record's noise, not a model that is wrong."]
+              "describe the record's noise, not a model that is wrong.",
+              *informed.parameter_notes()]
+    lines += [""] + residual_diagnostics.markdown_lines(list(diagnosis.values()))
     lines += ["", "Residual peaks (Hz, " + r.primary + "): " +
               (", ".join(f"{f:.6g}" for f in r.residual_peaks_Hz) or "none"), "",
+              "The final model's series, the training record's and each held-out record's: "
+              "`series_<dataset>.csv` (report.json `series`; time_s and each fitted channel "
+              "measured, predicted and residual = measured - predicted) and, with figures, "
+              "`series_<dataset>.png` (the whole record and a window of a few vibration "
+              "periods, or 5 % of the record, where the residual is largest).", "",
               *(["The fitted scene is `fitted_model.xml` (load it with "
                  "`mujoco.MjModel.from_xml_path` after `vibrofriction.load()`).", ""]
                 if _is_machine(r) else
@@ -308,8 +332,13 @@ def write_report(result: SimIdentification, out_dir, *, figures: bool = True) ->
         (tmp / "report.md").write_text(report_markdown(result))
         if _is_machine(result):
             (tmp / "fitted_model.xml").write_text(fitted_scene_xml(result))
+        write_series(simulation_series(result), tmp, figures=figures,
+                     title=f"{result.law} + " + (", ".join(result.selected) or "nothing"))
         if figures:
             _figure(result, tmp / "fit.png")
+            residual_diagnostics.write_figure(
+                list(residual_diagnostics.for_simulation(result).values()),
+                tmp / "diagnostics.png")
 
     return write_folder(out_dir, write)
 
