@@ -129,3 +129,18 @@ def test_a_fixed_duration_too_short_to_judge_is_flagged(capsys):
     assert main(["simulate", "--duration", "0.05"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["converged"] is False and summary["duration_s"] == 0.05
+
+
+def test_the_python_api_warns_when_a_summary_is_not_converged():
+    """``run.summary()`` of a run to steady state that did not settle says so where it is
+    read (issue 36: an example printed 0.676 for 0.77 without a word)."""
+    import warnings
+    run = rig_module.simulate(RigParameters(vibration_velocity_amplitude_m_per_s=3e-3),
+                              default_friction("dahl"))
+    assert run.convergence.converged
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        run.summary()  # converged: silent
+    unsettled = replace(run, convergence=replace(run.convergence, converged=False))
+    with pytest.warns(rig_module.UnconvergedWarning, match="did not settle"):
+        unsettled.summary()

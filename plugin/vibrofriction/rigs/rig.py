@@ -7,6 +7,7 @@ runs the model natively with ``mujoco.rollout`` (sensors recorded every step).
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Sequence
@@ -171,6 +172,11 @@ def default_times(rig: RigParameters, friction: FrictionParameters) -> tuple[flo
     return settle_time_s + 0.04, settle_time_s
 
 
+class UnconvergedWarning(UserWarning):
+    """A run to steady state whose mean drive force had not settled: its summary is not the
+    steady answer."""
+
+
 @dataclass(frozen=True)
 class RigRun:
     """Time series of one run (row i at t_i = i dt, before step i) and its parameters."""
@@ -203,6 +209,14 @@ class RigRun:
         """Means over whole periods after ``settle_time_s``; without it, for a run to steady
         state, the converged window's (Hann-weighted) summary."""
         if settle_time_s is None and self.steady_summary is not None:
+            if self.convergence is not None and not self.convergence.converged:
+                # a number a user could take for the steady answer: said where it is read
+                warnings.warn(
+                    f"the run did not settle within its {self.convergence.simulated_s:.3g} s: "
+                    f"its mean drive force still moved by {self.convergence.relative_change:.2g} "
+                    f"of itself (tolerance {self.convergence.tolerance:g}) between the last "
+                    "two windows; run longer (max_duration_s) or read run.convergence",
+                    UnconvergedWarning, stacklevel=2)
             return self.steady_summary
         settle = self.settle_time_s if settle_time_s is None else settle_time_s
         return summarize(self.time_s, self.drive_force_N, self.friction_force_N, self.period_s,
