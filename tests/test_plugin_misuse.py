@@ -235,3 +235,99 @@ def test_an_empty_value_is_stored_as_an_absent_key():
         via_xml = mujoco.MjModel.from_xml_string(spec.to_xml())
         attrs += [bytes(m.plugin_attr) for m in (via_spec, via_xml)]
     assert len(set(attrs)) == 1
+
+
+# ---- structural misuse of the normal load and the planar element's state (issue 35) ------------
+
+PLANAR_ACTDIM = """
+<mujoco>
+  <extension><plugin plugin="vibrofriction.planar"><instance name="e">
+    <config key="law" value="{law}"/><config key="mu" value="0.5"/><config key="normal" value="10"/>
+  </instance></plugin></extension>
+  <worldbody>
+    <body><joint name="x" type="slide" axis="1 0 0"/><joint name="y" type="slide" axis="0 1 0"/>
+      <geom size="0.1" mass="1"/></body>
+  </worldbody>
+  <actuator><plugin name="x" joint="x" instance="e" actdim="{actdim}"/>
+    <plugin name="y" joint="y" instance="e" actdim="{actdim}"/></actuator>
+</mujoco>"""
+
+
+@pytest.mark.parametrize("law, keeps", [("dahl", "one deflection per axis, (z_x, z_y) in act"),
+                                        ("coulomb", "one (unused) state per axis")])
+def test_the_planar_element_refuses_two_states_for_a_one_state_law(law, keeps):
+    """As the 1D element: actdim="2" on both actuators of a one-state law is refused, naming
+    the actuator, its actdim and the fix (it compiled before, with act[1] never used). Checked
+    in init, where MuJoCo repeats the message (plugin/cpp/README.md, Errors)."""
+    vibrofriction.load()
+    message = _error(lambda: mujoco.MjModel.from_xml_string(
+        PLANAR_ACTDIM.format(law=law, actdim=2)))
+    assert (f"vibrofriction.planar (instance 'e', actuator 'x', actuator 'y'): the x actuator "
+            f'has actdim="2"; law {law} keeps {keeps}: write actdim="1" on both actuators'
+            ) in message
+    mujoco.MjModel.from_xml_string(PLANAR_ACTDIM.format(law=law, actdim=1))
+
+
+TOUCH_LOAD = """
+<mujoco>
+  <extension><plugin plugin="vibrofriction.{element}"><instance name="e">
+    {law}<config key="mu" value="0.5"/><config key="normal" value="{normal}"/>
+    <config key="normal_sensor" value="touch"/><config key="normal_gain" value="{gain}"/>
+  </instance></plugin></extension>
+  <worldbody>
+    <geom type="plane" size="1 1 0.1"/>
+    <body pos="0 0 0.1"><joint name="x" type="slide" axis="1 0 0"/>
+      <joint name="y" type="slide" axis="0 1 0"/><joint name="z" type="slide" axis="0 0 1"/>
+      <geom size="0.1" mass="1" condim="1"/><site name="pad" size="0.11"/></body>
+  </worldbody>
+  <actuator><plugin name="x" joint="x" instance="e" {actdim}/>{second}</actuator>
+  <sensor><touch name="touch" site="pad"/></sensor>
+</mujoco>"""
+
+
+@pytest.mark.parametrize("element", ["friction", "planar", "averaged"])
+def test_a_negative_gain_on_a_sensor_that_never_reads_below_zero_is_refused(element):
+    """A touch sensor reads >= 0: with normal="0" a negative gain makes F_N <= 0 at every step
+    (a contact that never carries friction), as the contact geoms' rule. With a constant
+    normal the same gain is a load the sensor's reading lowers: accepted."""
+    vibrofriction.load()
+    planar = element != "friction"
+    fields = dict(element=element, law="" if element == "averaged"
+                  else '<config key="law" value="dahl"/>',
+                  actdim="" if element == "averaged" else 'actdim="1"',
+                  second=('<plugin name="y" joint="y" instance="e" '
+                          + ("" if element == "averaged" else 'actdim="1"') + "/>")
+                  if planar else "")
+    message = _error(lambda: mujoco.MjModel.from_xml_string(
+        TOUCH_LOAD.format(normal=0, gain=-1, **fields)))
+    assert ("attribute 'normal_gain'=\"-1\" with normal=\"0\" makes the load negative at every "
+            "step: normal_sensor 'touch' is a touch sensor, never below 0; the gain must be > 0"
+            ) in message
+    assert f"vibrofriction.{element} (instance 'e'" in message
+    mujoco.MjModel.from_xml_string(TOUCH_LOAD.format(normal=0, gain=1, **fields))
+    mujoco.MjModel.from_xml_string(TOUCH_LOAD.format(normal=20, gain=-1, **fields))
+
+
+CTRL_LOAD = """
+<mujoco>
+  <extension><plugin plugin="vibrofriction.friction"><instance name="e">
+    <config key="law" value="coulomb"/><config key="normal" value="{normal}"/>
+    <config key="normal_gain" value="{gain}"/><config key="normal_from_ctrl" value="true"/>
+  </instance></plugin></extension>
+  <worldbody><body><joint name="x" type="slide" axis="1 0 0"/><geom size="0.1" mass="1"/></body>
+  </worldbody>
+  <actuator><plugin name="x" joint="x" instance="e" actdim="1" ctrlrange="{range}"/></actuator>
+</mujoco>"""
+
+
+def test_a_load_from_ctrl_that_its_ctrlrange_keeps_at_or_below_zero_is_refused():
+    vibrofriction.load()
+    message = _error(lambda: mujoco.MjModel.from_xml_string(
+        CTRL_LOAD.format(normal=0, gain=-1, range="0 10")))
+    assert ("attribute 'normal_gain'=\"-1\" with normal=\"0\" and the actuator's ctrlrange "
+            "[0, 10] makes the load 0 N at most, <= 0 at every step") in message
+    message = _error(lambda: mujoco.MjModel.from_xml_string(
+        CTRL_LOAD.format(normal=5, gain=2, range="-10 -3")))
+    assert "makes the load -1 N at most" in message
+    for normal, gain, range_ in ((0, 1, "0 10"), (5, -1, "0 10"), (0, -1, "-10 0")):
+        mujoco.MjModel.from_xml_string(CTRL_LOAD.format(normal=normal, gain=gain, range=range_))

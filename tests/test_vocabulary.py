@@ -37,12 +37,14 @@ NORMAL_LOAD_KEYS = {"normal", "normal_sensor", "normal_gain", "normal_component"
 OWN_KEYS = {
     "friction": {"law", "normal_from_ctrl", *NORMAL_LOAD_KEYS},
     "planar": {"law", *NORMAL_LOAD_KEYS},
-    "contact": {"law", "support", "torsion_radius"},  # the load: MuJoCo's contacts
+    "contact": {"law", "support", "support_geom", "torsion_radius"},  # the load: MuJoCo's contacts
     "averaged": {*NORMAL_LOAD_KEYS, "velocity_amplitude", "axis_angle", "use_ctrl", "table_xi",
                  "table_angle", "table_along", "table_across", "table_checksum"},
-    "contact_averaged": {"support", "torsion_radius", "velocity_amplitude", "axis", "table_xi",
-                         "table_angle", "table_along", "table_across", "table_checksum"},
-    "contact_feeder": {"support", "torsion_radius", "axis", "map_velocity", "map_force"},
+    "contact_averaged": {"support", "support_geom", "torsion_radius", "velocity_amplitude", "axis",
+                         "table_xi", "table_angle", "table_along", "table_across",
+                         "table_checksum"},
+    "contact_feeder": {"support", "support_geom", "torsion_radius", "axis", "map_velocity",
+                       "map_force"},
 }
 TABLE_KEYS = {term.mjcf_key for term in FRICTION_TERMS}
 

@@ -234,6 +234,21 @@ bool NormalLoad::FromModel(const mjModel* m, int instance, const char* plugin, R
       return RejectAttribute(plugin, kNormalComponent, component,
                     "must be a whole number below the sensor's dimension");
     }
+    // A sensor that never reads below 0 (a touch sensor, a joint or tendon limit's force):
+    // with no constant part, a negative gain makes F_N <= 0 at every step, as for contact geoms.
+    if (scope == ReadScope::kAll && n.normal == 0 && n.gain < 0) {
+      const int type = m->sensor_type[n.sensor];
+      const char* kind = type == mjSENS_TOUCH            ? "a touch sensor"
+                         : type == mjSENS_JOINTLIMITFRC  ? "a joint limit's force"
+                         : type == mjSENS_TENDONLIMITFRC ? "a tendon limit's force"
+                                                         : nullptr;
+      if (kind) {
+        return ConfigError("%s: attribute 'normal_gain'=\"%g\" with normal=\"0\" makes the load "
+                           "negative at every step: normal_sensor '%s' is %s, never below 0; "
+                           "the gain must be > 0 (or give a constant normal that the sensor's "
+                           "reading lowers)", plugin, n.gain, sensor_name, kind);
+      }
+    }
   }
   if (has_geom1 != has_geom2) {
     ConfigError("%s: only one of 'contact_geom1' and 'contact_geom2' is set; name both geoms "

@@ -1127,6 +1127,274 @@ template void GmsImplicitForce<1>(const LawParameters&, const double*, const dou
 template void GmsImplicitForce<2>(const LawParameters&, const double*, const double*,
                                   const double*, const double*, double*);
 
+// ---- The deflection step taken implicitly (steps that do not resolve the contact) ---------------
+
+namespace {
+
+// Newton's method for the end-of-step velocity w: R(w) = w + B F(w) - v_free = 0, with the
+// Jacobian I + B dF/dw by forward differences (step h_j = 1e-7 max(|w|, kink), kink the speed
+// at which one step's travel is the steady deflection) and a backtracking line search on |R|.
+// With the level frozen over the step F is monotone in w (more velocity, more deflection) and B
+// positive semi-definite, so the root is unique; from the better of the two starting guesses (`guesses`) it converges in a few
+// iterations. Returns the force at the root in `force` and the root in `w`.
+template <int N, typename Force>
+void SolveImplicitEndVelocity(const double B[N * N], const double v_free[N], double kink,
+                              const double* const guesses[2], Force&& force_of, double w[N],
+                              double force[N]) {
+  auto residual = [&](const double x[N], double f[N], double r[N]) {
+    force_of(x, f);
+    double size = 0.0;
+    for (int i = 0; i < N; ++i) {
+      double bf = 0.0;
+      for (int j = 0; j < N; ++j) bf += B[N * i + j] * f[j];
+      r[i] = x[i] + bf - v_free[i];
+      size += r[i] * r[i];
+    }
+    return std::sqrt(size);
+  };
+  double f[N] = {}, r[N] = {}, size = 0.0;
+  for (int g = 0; g < 2; ++g) {
+    double fg[N], rg[N];
+    const double s = residual(guesses[g], fg, rg);
+    if (g == 0 || s < size) {
+      size = s;
+      for (int i = 0; i < N; ++i) {
+        w[i] = guesses[g][i];
+        f[i] = fg[i];
+        r[i] = rg[i];
+      }
+    }
+  }
+  // the size of the terms of R: below 1e-13 of it R is rounding
+  double scale = kink + Norm<N>(v_free);
+  bool central = false;  // central differences: at w = 0 (where F has a kink) and on a retry
+  for (int iter = 0; iter < 60; ++iter) {
+    scale = std::max(scale, Norm<N>(w));
+    if (!(size > 1e-13 * scale)) break;
+    const double h = 1e-7 * std::max(Norm<N>(w), kink);
+    if (Norm<N>(w) < 10 * h) central = true;
+    double J[N * N];  // I + B dF/dw
+    double dF[N * N];  // column j: dF/dw_j
+    for (int j = 0; j < N; ++j) {
+      double x[N], fx[N], fy[N];
+      for (int i = 0; i < N; ++i) x[i] = w[i];
+      x[j] += h;
+      force_of(x, fx);
+      if (central) {
+        x[j] -= 2 * h;
+        force_of(x, fy);
+        for (int i = 0; i < N; ++i) dF[N * i + j] = (fx[i] - fy[i]) / (2 * h);
+      } else {
+        for (int i = 0; i < N; ++i) dF[N * i + j] = (fx[i] - f[i]) / h;
+      }
+    }
+    for (int i = 0; i < N; ++i) {
+      for (int j = 0; j < N; ++j) {
+        double sum = i == j ? 1.0 : 0.0;
+        for (int k = 0; k < N; ++k) sum += B[N * i + k] * dF[N * k + j];
+        J[N * i + j] = sum;
+      }
+    }
+    double minus_r[N], step[N];
+    for (int i = 0; i < N; ++i) minus_r[i] = -r[i];
+    if (!SolveLinear<N>(J, minus_r, 1e-300, step)) {
+      for (int i = 0; i < N; ++i) step[i] = minus_r[i];  // (I + B dF: not singular in practice)
+    }
+    // Backtracking: accept the first fraction of the step that lowers |R|.
+    double alpha = 1.0;
+    bool moved = false;
+    for (int k = 0; k < 40; ++k, alpha *= 0.5) {
+      double x[N], fx[N], rx[N];
+      for (int i = 0; i < N; ++i) x[i] = w[i] + alpha * step[i];
+      const double s = residual(x, fx, rx);
+      if (s < (1.0 - 1e-4 * alpha) * size) {
+        for (int i = 0; i < N; ++i) {
+          w[i] = x[i];
+          f[i] = fx[i];
+          r[i] = rx[i];
+        }
+        size = s;
+        moved = true;
+        break;
+      }
+    }
+    if (!moved) {
+      if (central) break;  // at the root to working precision
+      central = true;      // a kink between w and the root: retry with central differences
+      continue;
+    }
+    central = false;
+    // a full step below 1e-10 of the velocity scale: the next would be below rounding
+    if (alpha == 1.0 && Norm<N>(step) <= 1e-10 * (Norm<N>(w) + kink)) break;
+  }
+  for (int i = 0; i < N; ++i) force[i] = f[i];
+}
+
+// The parameters with the level's speed dependence (Stribeck curve) frozen at `speed`: the
+// level g(speed) as the Coulomb level, Dupont's breakaway deflection kept.
+LawParameters LevelAtSpeed(const LawParameters& p, double speed) {
+  const double shape = VelocityShape(p, speed);
+  LawParameters q = p;
+  if (shape == 1.0) return q;
+  q.static_ratio = 1.0;
+  q.velocity_map.count = 0;
+  q.friction_coefficient *= shape;
+  q.breakaway_ratio = p.breakaway_ratio / shape;
+  return q;
+}
+
+// The elastic guess: the deflection follows the motion over the step, z + dt w (exact while it
+// sticks in Dupont's elastic range, close for Dahl and LuGre): (I + (k dt + s1 + s2) B) w =
+// v_free - k B z.
+template <int N>
+void ElasticGuess(double stiffness, double damping, const double z[N], const double v_free[N],
+                  const double B[N * N], double dt, double w[N]) {
+  double A[N * N], rhs[N];
+  for (int i = 0; i < N; ++i) {
+    double bz = 0.0;
+    for (int j = 0; j < N; ++j) {
+      A[N * i + j] = (i == j) + (stiffness * dt + damping) * B[N * i + j];
+      bz += B[N * i + j] * z[j];
+    }
+    rhs[i] = v_free[i] - stiffness * bz;
+  }
+  if (!SolveLinear<N>(A, rhs, 1e-300, w)) {
+    for (int i = 0; i < N; ++i) w[i] = v_free[i];
+  }
+}
+
+// The rigid guess: rigid Coulomb's end-of-step velocity (the limit of an infinite stiffness),
+// v_free - B F_coulomb.
+template <int N>
+void RigidGuess(const LawParameters& p, const LawInput& in, const double v_free[N],
+                const double B[N * N], double w[N]) {
+  LawParameters rigid = p;
+  rigid.law = Law::kCoulomb;
+  rigid.viscous = 0.0;
+  double f[N];
+  VectorStickSlipForce<N>(rigid, in, v_free, v_free, B, f);
+  for (int i = 0; i < N; ++i) {
+    double bf = 0.0;
+    for (int j = 0; j < N; ++j) bf += B[N * i + j] * f[j];
+    w[i] = v_free[i] - bf;
+  }
+}
+
+}  // namespace
+
+template <int N>
+double LargestEigenvalue(const double A[N * N]) {
+  static_assert(N >= 1 && N <= 3, "LargestEigenvalue: N = 1, 2 or 3");
+  if constexpr (N == 1) {
+    return A[0];
+  } else if constexpr (N == 2) {
+    const double mean = 0.5 * (A[0] + A[3]);
+    const double half = 0.5 * (A[0] - A[3]);
+    const double off = 0.5 * (A[1] + A[2]);
+    return mean + std::hypot(half, off);
+  } else {
+    // the trigonometric solution for a symmetric matrix (Smith 1961)
+    const double a01 = 0.5 * (A[1] + A[3]), a02 = 0.5 * (A[2] + A[6]);
+    const double a12 = 0.5 * (A[5] + A[7]);
+    const double off = a01 * a01 + a02 * a02 + a12 * a12;
+    const double q = (A[0] + A[4] + A[8]) / 3.0;
+    const double d0 = A[0] - q, d1 = A[4] - q, d2 = A[8] - q;
+    const double p2 = d0 * d0 + d1 * d1 + d2 * d2 + 2.0 * off;
+    if (!(p2 > 0)) return q;
+    const double p = std::sqrt(p2 / 6.0);
+    // det((A - q I) / p) / 2
+    const double b00 = d0 / p, b11 = d1 / p, b22 = d2 / p;
+    const double b01 = a01 / p, b02 = a02 / p, b12 = a12 / p;
+    const double det = b00 * (b11 * b22 - b12 * b12) - b01 * (b01 * b22 - b12 * b02) +
+                       b02 * (b01 * b12 - b11 * b02);
+    const double r = std::clamp(0.5 * det, -1.0, 1.0);
+    return q + 2.0 * p * std::cos(std::acos(r) / 3.0);
+  }
+}
+
+template <int N>
+void VectorImplicitDeflectionForce(const LawParameters& p, const LawInput& in, const double z[N],
+                                   const double v_free[N], const double B[N * N], double dt,
+                                   double force[N], double end_velocity[N], double next[N]) {
+  const double k = p.contact_stiffness;
+  // The level at the step's start speed, as rigid Coulomb's kinetic level: a level falling
+  // with the speed (Stribeck) taken at the end speed would give the step several solutions.
+  const LawParameters q = LevelAtSpeed(p, in.velocity);
+  const double level = CoulombLevel(q, in, 1.0);
+  // A deflection beyond what that level holds (the load or the level fell) is taken at the
+  // level: it would slip back within a travel of order level / k, a small part of the step.
+  double start[N];
+  const double size = Norm<N>(z), limit = level / k;
+  for (int i = 0; i < N; ++i) start[i] = size > limit ? z[i] * (limit / size) : z[i];
+  auto force_of = [&](const double w[N], double f[N]) {
+    double after[N];
+    for (int i = 0; i < N; ++i) after[i] = start[i];
+    AdvanceVectorDeflection<N>(q, in, w, after, dt);
+    for (int i = 0; i < N; ++i) {
+      f[i] = k * after[i] + q.bristle_damping * (after[i] - start[i]) / dt + q.viscous * w[i];
+    }
+  };
+  // (no level: no deflection, F = sigma2 w; a velocity scale for the differences all the same)
+  const double kink = std::max(level / k / dt, 1e-12 * Norm<N>(v_free) + 1e-300);
+  double elastic[N], rigid[N];
+  ElasticGuess<N>(k, q.bristle_damping + q.viscous, start, v_free, B, dt, elastic);
+  RigidGuess<N>(q, in, v_free, B, rigid);
+  const double* const guesses[2] = {elastic, rigid};
+  SolveImplicitEndVelocity<N>(B, v_free, kink, guesses, force_of, end_velocity, force);
+  for (int i = 0; i < N; ++i) next[i] = start[i];
+  AdvanceVectorDeflection<N>(q, in, end_velocity, next, dt);
+}
+
+template <int D>
+void GmsImplicitDeflectionForce(const LawParameters& p, const LawInput& in, const double* z,
+                                const double* slipping, const double v_free[D],
+                                const double B[D * D], double dt, double force[D],
+                                double end_velocity[D], double* next, double* next_slipping) {
+  const int count = p.gms.count;
+  double stiffness = 0.0;
+  for (int i = 0; i < count; ++i) stiffness += p.gms.stiffness[i];
+  const LawParameters q = LevelAtSpeed(p, in.velocity);  // (as VectorImplicitDeflectionForce)
+  auto force_of = [&](const double w[D], double f[D]) {
+    double after[D * kMaxGmsElements], flags[kMaxGmsElements];
+    for (int i = 0; i < D * count; ++i) after[i] = z[i];
+    for (int i = 0; i < count; ++i) flags[i] = slipping[i];
+    LawInput at = in;
+    if (D == 1) at.velocity = w[0];
+    AdvanceGms<D>(q, at, w, after, flags, dt);
+    GmsElementForce<D>(q, after, f);
+    for (int j = 0; j < D; ++j) f[j] += q.viscous * w[j] + (D == 1 ? q.force_offset : 0.0);
+  };
+  const double level = CoulombLevel(q, in, 1.0);
+  double zsum[D];
+  GmsElementForce<D>(p, z, zsum);
+  const double kink = std::max(std::max(level, Norm<D>(zsum)) / (stiffness * dt),
+                               1e-12 * Norm<D>(v_free) + 1e-300);
+  double elastic[D], rigid[D];
+  for (int j = 0; j < D; ++j) zsum[j] /= stiffness;  // the one deflection with that force
+  ElasticGuess<D>(stiffness, q.viscous, zsum, v_free, B, dt, elastic);
+  RigidGuess<D>(q, in, v_free, B, rigid);
+  const double* const guesses[2] = {elastic, rigid};
+  SolveImplicitEndVelocity<D>(B, v_free, kink, guesses, force_of, end_velocity, force);
+  for (int i = 0; i < D * count; ++i) next[i] = z[i];
+  for (int i = 0; i < count; ++i) next_slipping[i] = slipping[i];
+  LawInput at = in;
+  if (D == 1) at.velocity = end_velocity[0];
+  AdvanceGms<D>(q, at, end_velocity, next, next_slipping, dt);
+}
+
+template double LargestEigenvalue<1>(const double*);
+template double LargestEigenvalue<2>(const double*);
+template double LargestEigenvalue<3>(const double*);
+template void VectorImplicitDeflectionForce<2>(const LawParameters&, const LawInput&,
+                                               const double*, const double*, const double*,
+                                               double, double*, double*, double*);
+template void VectorImplicitDeflectionForce<3>(const LawParameters&, const LawInput&,
+                                               const double*, const double*, const double*,
+                                               double, double*, double*, double*);
+template void GmsImplicitDeflectionForce<2>(const LawParameters&, const LawInput&, const double*,
+                                            const double*, const double*, const double*, double,
+                                            double*, double*, double*, double*);
+
 bool ParseLaw(const char* name, Law* law) {
   if (!name) return false;
   static const struct { const char* name; Law law; } kNames[] = {

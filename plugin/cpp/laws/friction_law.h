@@ -386,6 +386,51 @@ template <int D>
 void GmsImplicitForce(const LawParameters& p, const double* z, const double v[D],
                       const double v_free[D], const double B[D * D], double force[D]);
 
+// ---- Steps that do not resolve the contact (robot timesteps) --------------------------------
+// The state laws' force k_t z_n of the step's start, with z advanced over the step at the new
+// velocity, is a symplectic-Euler pair: for a body of response B = dt J M^-1 J' it is stable
+// only while omega dt < 2, omega^2 dt^2 = k_t dt lambda_max(B) (measured on a free 1 kg box:
+// the spin mode, lambda = rho^2/I = 3/m with MuJoCo's corner contacts, breaks at omega dt
+// 1.14-1.17 against 2/sqrt 3 = 1.155 predicted). Beyond it the contact chatters and the mean
+// friction falls below the level: a part pushed at half its sliding friction slid on at
+// 1.45 mm/s (1 ms) and 2.90 mm/s (2 ms). The elements therefore take the step implicitly once
+// k_t dt lambda_max(B) >= kUnresolvedDeflection (omega dt >= 1, half the limit), or the explicit
+// damping sigma dt lambda_max(B) / dt reaches it (the contact element).
+inline constexpr double kUnresolvedDeflection = 1.0;
+
+// The largest eigenvalue of a symmetric N x N matrix (N = 1, 2, 3; row-major).
+template <int N>
+double LargestEigenvalue(const double A[N * N]);
+
+// The state laws' force of a step taken implicitly: backward Euler in the body's motion with
+// the law's exact constant-velocity update of the deflection. The end-of-step velocity w solves
+// w + B F(w) = v_free (B = dt J M^-1 J', N x N, positive semi-definite), with
+//   F(w) = k_t z(w) + sigma1 (z(w) - z)/dt + sigma2 w,  z(w) = AdvanceVectorDeflection(z, w, dt),
+// (Newton, from the better of the elastic guess and rigid Coulomb's end velocity). The level is
+// taken at the step's start speed in.velocity (as rigid Coulomb's kinetic level: a level that
+// falls with the speed, taken at w, would give the step several solutions), and a deflection
+// beyond it at the level. Stable for any dt: below the level the body stops (F = B^+ v_free,
+// the stick force), above it slides at the level; as k_t dt lambda(B) grows it tends to rigid
+// Coulomb with the law's Stribeck curve. Returns w and z(w) in `next`: the elements take it as
+// the deflection after the step (the state the force was computed with), whatever the body's
+// true end velocity (their B is an estimate): integrating the true velocity into z instead
+// made the stick loop unstable when B overestimates the response (a box on MuJoCo's contacts:
+// B is the free body's, 2.5 times the true dt/m), a limit cycle that ratcheted a held part
+// forward by a few um/s. N = 2 and 3.
+template <int N>
+void VectorImplicitDeflectionForce(const LawParameters& p, const LawInput& in, const double z[N],
+                                   const double v_free[N], const double B[N * N], double dt,
+                                   double force[N], double end_velocity[N], double next[N]);
+
+// The same for law gms in the plane (D = 2): F(w) = sum k_i z_i(w) + sigma2 w with the elements
+// advanced by AdvanceGms from (z, slipping) (neither is changed; the elements and flags after
+// the step at w in `next`, `next_slipping`).
+template <int D>
+void GmsImplicitDeflectionForce(const LawParameters& p, const LawInput& in, const double* z,
+                                const double* slipping, const double v_free[D],
+                                const double B[D * D], double dt, double force[D],
+                                double end_velocity[D], double* next, double* next_slipping);
+
 // True for the laws that keep a deflection state.
 inline bool HasDeflection(Law law) { return law != Law::kCoulomb; }
 

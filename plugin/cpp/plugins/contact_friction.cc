@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <string>
 #include <utility>
 
 #include "common/element_config.h"
@@ -17,18 +18,19 @@ using namespace keys;  // NOLINT: the shared MJCF keys
 constexpr char kPlugin[] = "vibrofriction.contact";
 constexpr char kSupport[] = "support";
 constexpr char kTorsionRadius[] = "torsion_radius";
+constexpr char kSupportGeom[] = "support_geom";
 
 const char* const kAttributes[] = {
     kLaw, kMu, kStiffness, kAlpha, kBreakaway, kSigma1, kViscous, kStaticRatio,
     kStribeckVelocity, kNormalModulation, kModulationFrequency, kModulationPhase, kSupport,
-    kTorsionRadius};
+    kTorsionRadius, kSupportGeom};
 
 constexpr char kAveragedPlugin[] = "vibrofriction.contact_averaged";
 constexpr char kAxis[] = "axis";
 // The robot-timestep form: the table of vibrofriction.averaged over the generalized velocity.
 const char* const kAveragedAttributes[] = {
     kMu, kViscous, kStaticRatio, kStribeckVelocity, kSupport, kTorsionRadius, kVelocityAmplitude,
-    kAxis, kTableXi, kTableAngle, kTableAlong, kTableAcross, kTableChecksum};
+    kAxis, kTableXi, kTableAngle, kTableAlong, kTableAcross, kTableChecksum, kSupportGeom};
 
 constexpr char kFeederPlugin[] = "vibrofriction.contact_feeder";
 constexpr char kMapVelocity[] = "map_velocity";
@@ -36,7 +38,7 @@ constexpr char kMapForce[] = "map_force";
 // Parts on a vibratory feeder at robot timesteps: the feeder map of
 // vibrofriction.robots.feeder_map.
 const char* const kFeederAttributes[] = {kMu, kSupport, kTorsionRadius, kAxis, kMapVelocity,
-                                         kMapForce};
+                                         kMapForce, kSupportGeom};
 
 // True when MuJoCo's body-pair mechanism never collides bodies b1 and b2: one weld group, or a
 // parent and a child weld group (not the world) while filterparent is on. An explicit <pair>
@@ -215,6 +217,26 @@ bool ContactConfig::ReadPair(const mjModel* m, int instance, const char* plugin,
     return ConfigError("%s: support=\"%s\" is the body the element is attached to; name the body "
                        "it rests on", plugin, support);
   }
+  // support_geom: the geoms of the support that form the conveying surface (names separated by
+  // spaces); contacts with its other geoms (walls, end stops) are left to MuJoCo.
+  c.surface.clear();
+  const char* surface = mj_getPluginConfig(m, instance, kSupportGeom);
+  for (const char* s = surface ? surface : ""; *s;) {
+    while (*s == ' ' || *s == '\t' || *s == '\n' || *s == '\r') ++s;
+    if (!*s) break;
+    const char* end = s;
+    while (*end && *end != ' ' && *end != '\t' && *end != '\n' && *end != '\r') ++end;
+    const std::string name(s, end);
+    s = end;
+    const int geom = mj_name2id(m, mjOBJ_GEOM, name.c_str());
+    if (geom < 0 || m->geom_bodyid[geom] != c.support) {
+      return ConfigError("%s: support_geom=\"%s\": '%s' names no geom of the support body '%s'; "
+                         "list the names of the support's geoms that form the surface the part "
+                         "rests on", plugin, surface, name.c_str(), BodyName(m, c.support));
+    }
+    if (c.surface.empty()) c.surface.assign(m->ngeom, 0);
+    c.surface[geom] = 1;
+  }
   // The chains: MuJoCo's mj_jac walks the same dofs (dof_parentid from the body's last dof).
   c.chain_dofs.clear();
   c.chain_signs.clear();
@@ -244,7 +266,7 @@ bool ContactConfig::ReadPair(const mjModel* m, int instance, const char* plugin,
   for (int g1 = 0; g1 < m->ngeom; ++g1) {
     if (m->geom_bodyid[g1] != c.body) continue;
     for (int g2 = 0; g2 < m->ngeom; ++g2) {
-      if (m->geom_bodyid[g2] != c.support) continue;
+      if (m->geom_bodyid[g2] != c.support || !c.OnSurface(g2)) continue;
       const int condim = PairCondim(m, g1, g2, filtered);
       if (condim == 0) continue;
       if (condim != 1) {
@@ -268,9 +290,10 @@ bool ContactConfig::ReadPair(const mjModel* m, int instance, const char* plugin,
                        BodyName(m, c.body), BodyName(m, c.support));
   }
   if (touching == 0) {
-    return ConfigError("%s: no geom of body '%s' can touch a geom of its support '%s' "
+    return ConfigError("%s: no geom of body '%s' can touch %s of its support '%s' "
                        "(contype/conaffinity exclude every pair); the element acts over their "
-                       "contacts", plugin, BodyName(m, c.body), BodyName(m, c.support));
+                       "contacts", plugin, BodyName(m, c.body),
+                       c.surface.empty() ? "a geom" : "a support_geom", BodyName(m, c.support));
   }
   return true;
 }
@@ -470,9 +493,63 @@ void ContactFriction::ImplicitForce(const mjModel* m, mjData* d, const mjtNum* s
   response_[3] = change[2];
 }
 
+void ContactFriction::DeflectionForce(const mjModel* m, mjData* d, const mjtNum* state,
+                                      const LawInput& in, const double u[4],
+                                      const double zeta[4], double f[4]) {
+  const LawParameters& p = config_->law;
+  mjtNum t1[3], t2[3];
+  double B[9];
+  TangentResponse(m, d, state, t1, t2, B);
+  const bool spin = state[ContactState::kRadius] > 0;  // else a point: no spin coordinate
+  const double B2[4] = {B[0], B[1], B[3], B[4]};
+  const double lambda = spin ? LargestEigenvalue<3>(B) : LargestEigenvalue<2>(B2);
+  const double dt = m->opt.timestep;
+  const bool resolved = p.contact_stiffness * dt * lambda < kUnresolvedDeflection &&
+                        (p.bristle_damping + p.viscous) * lambda < kUnresolvedDeflection;
+  const mjtNum* t[2] = {t1, t2};
+  double f3[3] = {0, 0, 0};
+  if (resolved) {
+    // The explicit force of the step's start deflection (the symplectic-Euler pair with
+    // advance): exact as dt -> 0, second to none at resolved steps.
+    VectorStateForce<4>(p, in, u, zeta, f);
+    for (int r = 0; r < 2; ++r) f3[r] = mju_dot3(f, t[r]);
+    f3[2] = f[3];
+  } else {
+    const mjtNum* other = state + ContactState::kOtherAcceleration;
+    double ahead[4];  // u after this step without the element's force (estimate)
+    for (int i = 0; i < 4; ++i) ahead[i] = u[i] + dt * other[i];
+    const double v_free[3] = {mju_dot3(ahead, t1), mju_dot3(ahead, t2), spin ? ahead[3] : 0.0};
+    const double z3[3] = {mju_dot3(zeta, t1), mju_dot3(zeta, t2), spin ? zeta[3] : 0.0};
+    LawInput mid = in;  // the deflection's update over the step, as advance takes it
+    mid.time = in.time + 0.5 * dt;
+    double end[3], next[3] = {0, 0, 0};
+    if (spin) {
+      VectorImplicitDeflectionForce<3>(p, mid, z3, v_free, B, dt, f3, end, next);
+    } else {
+      VectorImplicitDeflectionForce<2>(p, mid, z3, v_free, B2, dt, f3, end, next);
+      f3[2] = 0.0;
+    }
+    for (int i = 0; i < 3; ++i) {
+      f[i] = f3[0] * t1[i] + f3[1] * t2[i];
+      implicit_next_[i] = next[0] * t1[i] + next[1] * t2[i];
+    }
+    f[3] = f3[2];
+    implicit_next_[3] = spin ? next[2] / state[ContactState::kRadius] : 0.0;  // theta
+    implicit_step_ = true;
+  }
+  // B f: the change of u the force causes, for the next step's estimate of the other forces
+  double change[3];
+  for (int r = 0; r < 3; ++r) {
+    change[r] = B[3 * r] * f3[0] + B[3 * r + 1] * f3[1] + (spin ? B[3 * r + 2] * f3[2] : 0.0);
+  }
+  for (int i = 0; i < 3; ++i) response_[i] = change[0] * t1[i] + change[1] * t2[i];
+  response_[3] = spin ? change[2] : 0.0;
+}
+
 void ContactFriction::Compute(const mjModel* m, mjData* d, int instance) {
   force_[0] = force_[1] = force_[2] = moment_ = speed_ = 0.0;
-  coulomb_applied_ = false;
+  response_known_ = false;
+  implicit_step_ = false;
   if (!config_.Refresh(m, instance)) return;
   const mjtNum* state = d->plugin_state + m->plugin_stateadr[instance];
   const double normal_force = state[ContactState::kNormalForce];
@@ -487,12 +564,12 @@ void ContactFriction::Compute(const mjModel* m, mjData* d, int instance) {
   double f[4];
   if (HasDeflection(config_->law.law)) {
     const double zeta[4] = {state[0], state[1], state[2], rho * state[ContactState::kTwist]};
-    VectorStateForce<4>(config_->law, in, u, zeta, f);
+    DeflectionForce(m, d, state, in, u, zeta, f);
   } else {  // coulomb, the averaged table or the feeder map
     ImplicitForce(m, d, state, in, config_->averaged ? config_->velocity_amplitude : 0.0, u, f);
-    mju_copy(u_start_, u, 4);
-    coulomb_applied_ = true;
   }
+  mju_copy(u_start_, u, 4);
+  response_known_ = true;
   const mjtNum* normal = state + ContactState::kNormal;
   const double along = f[0] * normal[0] + f[1] * normal[1] + f[2] * normal[2];
   mjtNum force[3], torque[3];
@@ -524,6 +601,7 @@ void ContactFriction::Advance(const mjModel* m, mjData* d, int instance) {
     const int b0 = m->geom_bodyid[c.geom[0]], b1 = m->geom_bodyid[c.geom[1]];
     const bool body_first = b0 == body && b1 == support;
     if (!body_first && !(b0 == support && b1 == body)) continue;
+    if (!config_->OnSurface(c.geom[body_first ? 1 : 0])) continue;  // a wall, an end stop
     mjtNum wrench[6];
     mj_contactForce(m, d, i, wrench);
     if (!(wrench[0] > 0)) continue;
@@ -560,24 +638,27 @@ void ContactFriction::Advance(const mjModel* m, mjData* d, int instance) {
   mju_copy3(state + ContactState::kPoint, point);
   mju_copy3(state + ContactState::kNormal, normal);
   state[ContactState::kRadius] = rho;
-  // The deflection stays in the tangent plane as the normal turns.
+  // The deflection stays in the tangent plane as the normal turns. After an implicit step it is
+  // the one the step's force was computed with (VectorImplicitDeflectionForce).
   mjtNum* z = state + ContactState::kDeflection;
+  if (implicit_step_) {
+    mju_copy3(z, implicit_next_);
+    state[ContactState::kTwist] = implicit_next_[3];
+  }
   const double along = mju_dot3(z, normal);
   for (int k = 0; k < 3; ++k) z[k] -= along * normal[k];
 
   const double dt = m->opt.timestep;
   double u[4];
   SlidingVelocity(m, d, state, u);
-  if (!HasDeflection(config_->law.law)) {
-    // The acceleration of u from every other force over this step: its change plus what the
-    // element's own force took off. Zero after a step without contact (nothing was applied).
-    mjtNum* other = state + ContactState::kOtherAcceleration;
-    for (int i = 0; i < 4; ++i) {
-      other[i] = coulomb_applied_ ? (u[i] + response_[i] - u_start_[i]) / dt : 0.0;
-    }
-    if (!(rho > 0)) other[3] = 0.0;  // a point: no spin coordinate
-    return;
+  // The acceleration of u from every other force over this step: its change plus what the
+  // element's own force took off. Zero after a step without contact (nothing was applied).
+  mjtNum* other = state + ContactState::kOtherAcceleration;
+  for (int i = 0; i < 4; ++i) {
+    other[i] = response_known_ ? (u[i] + response_[i] - u_start_[i]) / dt : 0.0;
   }
+  if (!(rho > 0)) other[3] = 0.0;  // a point: no spin coordinate
+  if (!HasDeflection(config_->law.law) || implicit_step_) return;
   LawInput in;
   in.time = d->time - 0.5 * dt;  // mid-step: time has already advanced
   in.normal_force = total;

@@ -5,7 +5,9 @@
 // with config `support` = the support body's name and the law keys of vibrofriction.planar.
 //
 // Each step, from the contacts between the two bodies' geoms (MuJoCo solves their normal force;
-// their condim must be 1 so that MuJoCo adds no friction of its own):
+// their condim must be 1 so that MuJoCo adds no friction of its own); with config
+// `support_geom` (names of the support's geoms that form the conveying surface) only the
+// contacts with those, the others (walls, end stops) left to MuJoCo as ordinary contacts:
 //   F_N  the summed normal force, p the force-weighted contact point, n the normal (support to
 //        body), rho the torsion radius (config `torsion_radius`, or sum F_i |p_i - p| / F_N: the
 //        moment arm of Coulomb point loads at the contacts);
@@ -22,7 +24,11 @@
 //
 // Step order: passive forces run before the constraint solve, so compute uses the contacts of
 // the previous step (kept in plugin_state by advance, which sums this step's contact forces and
-// updates zeta in closed form with the new velocity). Without contact F_N = 0: no force, and
+// updates zeta in closed form with the new velocity). A state law's step that does not resolve
+// the contact (k_t dt lambda_max(B) or (sigma1 + sigma2) lambda_max(B) >= 1, friction_law.h) is
+// taken implicitly instead: the force of the deflection at the end of the step, with the
+// end-of-step velocity solved as coulomb's (B and the other forces' acceleration of the last
+// step), and advance keeps that deflection. Without contact F_N = 0: no force, and
 // zeta resets (a part lifted off and set down starts undeflected).
 #ifndef VIBROFRICTION_CONTACT_FRICTION_H_
 #define VIBROFRICTION_CONTACT_FRICTION_H_
@@ -49,6 +55,10 @@ struct ContactConfig {
   std::vector<int> chain_dofs;
   std::vector<double> chain_signs;
   double torsion_radius = 0;   // m; 0: from the contact points
+  // config `support_geom`: per geom of the model, 1 for the support's geoms that form the
+  // conveying surface; empty (the key not given): every geom of the support
+  std::vector<unsigned char> surface;
+  bool OnSurface(int geom) const { return surface.empty() || surface[geom]; }
   // vibrofriction.contact_averaged: the averaged law's table, for this vibration
   bool averaged = false;
   AveragedTable table;
@@ -69,7 +79,8 @@ struct ContactConfig {
                               ReadScope scope = ReadScope::kAll);
 
  private:
-  // support, torsion_radius, the body, and the geoms' condim (shared by the three plugins).
+  // support, support_geom, torsion_radius, the body, and the geoms' condim (shared by the three
+  // plugins).
   bool ReadPair(const mjModel* m, int instance, const char* plugin, ReadScope scope);
   // `axis` (default "1 0 0"), normalized into axis_local.
   bool ReadAxis(const mjModel* m, int instance, const char* plugin);
@@ -83,7 +94,8 @@ struct ContactState {
   static constexpr int kPoint = 5;       // p, 3 (m)
   static constexpr int kNormal = 8;      // n, 3
   static constexpr int kRadius = 11;     // rho (m)
-  // law coulomb: the last step's acceleration of u from every force but the element's, 4 (as u)
+  // the last step's acceleration of u from every force but the element's, 4 (as u): v_free of
+  // the implicit steps (coulomb, the averaged laws, the state laws at unresolved steps)
   static constexpr int kOtherAcceleration = 12;
   static constexpr int kSize = 16;
 };
@@ -118,6 +130,13 @@ class ContactFriction {
   // the last step (one step late, like the contact's normal force).
   void ImplicitForce(const mjModel* m, mjData* d, const mjtNum* state, const LawInput& in,
                      double velocity_amplitude, const double u[4], double f[4]);
+  // dahl, dupont, lugre: the force of the deflection zeta (4, as u). Explicit (k_t zeta of the
+  // step's start, VectorStateForce) while the step resolves the contact, k_t dt lambda_max(B)
+  // and (sigma1 + sigma2) lambda_max(B) below kUnresolvedDeflection; else implicit
+  // (VectorImplicitDeflectionForce, with the other forces' acceleration of the last step as
+  // ImplicitForce).
+  void DeflectionForce(const mjModel* m, mjData* d, const mjtNum* state, const LawInput& in,
+                       const double u[4], const double zeta[4], double f[4]);
 
   CachedConfig<ContactConfig> config_;
   std::vector<mjtNum> columns_;  // per chain dof: d(v at p)/dq (3), d(omega)/dq (3), signed
@@ -130,11 +149,15 @@ class ContactFriction {
     double sign;
   };
   std::vector<Touch> touches_;
-  // Over one step, for the coulomb law's acceleration estimate: u at compute, and the change of
-  // u that the applied force causes (B f, as u).
+  // Over one step, for the acceleration estimate of the implicit steps: u at compute, and the
+  // change of u that the applied force causes (B f, as u).
   double u_start_[4] = {0, 0, 0, 0};
   double response_[4] = {0, 0, 0, 0};
-  bool coulomb_applied_ = false;  // this step's Compute applied the coulomb force
+  bool response_known_ = false;  // this step's Compute applied a force with a known B f
+  // A state law's step taken implicitly: the deflection after it (z_t world, 3; theta), which
+  // advance takes instead of integrating the body's end velocity.
+  bool implicit_step_ = false;
+  double implicit_next_[4] = {0, 0, 0, 0};
   // What the last Compute applied to the body (zero without contact), for the sensor.
   double force_[3] = {0, 0, 0};
   double moment_ = 0;

@@ -183,6 +183,20 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
     c.normal.ctrl = m->actuator_ctrladr[c.actuator];
   }
   if (scope == ReadScope::kAttributes) return true;  // the actuator's fields are not set yet
+  if (from_ctrl && m->actuator_ctrllimited[c.actuator]) {
+    // Within the ctrlrange the load is largest at one of its ends: <= 0 there, the element
+    // never carries friction.
+    const double lo = m->actuator_ctrlrange[2 * c.actuator];
+    const double hi = m->actuator_ctrlrange[2 * c.actuator + 1];
+    const double largest = c.normal.normal + std::max(c.normal.gain * lo, c.normal.gain * hi);
+    if (!(largest > 0)) {
+      return ConfigError("%s: attribute 'normal_gain'=\"%g\" with normal=\"%g\" and the "
+                         "actuator's ctrlrange [%g, %g] makes the load %g N at most, <= 0 at "
+                         "every step; give a gain and normal for which some ctrl of the range "
+                         "gives F_N = normal + normal_gain ctrl > 0", kPlugin, c.normal.gain,
+                         c.normal.normal, lo, hi, largest);
+    }
+  }
   if (m->actuator_actnum[c.actuator] < 1) {
     ConfigError("%s: the actuator has no state for the deflection z; add actdim=\"%d\" to the "
                 "actuator plugin element", kPlugin, deflections);

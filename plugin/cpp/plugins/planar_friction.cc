@@ -175,6 +175,18 @@ bool PlanarConfig::FromModel(const mjModel* m, int instance, PlanarConfig* confi
         return false;
       }
     }
+  } else {
+    for (int k = 0; k < 2; ++k) {
+      const int actdim = m->actuator_actnum[c.transmission.actuator[k]];
+      if (actdim != 1) {
+        ConfigError("%s: the %c actuator has actdim=\"%d\"; law %s keeps %s: write "
+                    "actdim=\"1\" on both actuators", kPlugin, k == 0 ? 'x' : 'y', actdim,
+                    LawName(p.law), HasDeflection(p.law) ? "one deflection per axis, (z_x, z_y) "
+                                                           "in act"
+                                                         : "one (unused) state per axis");
+        return false;
+      }
+    }
   }
   for (int k = 0; k < 2; ++k) c.act_address[k] = m->actuator_actadr[c.transmission.actuator[k]];
   *config = c;
@@ -202,6 +214,43 @@ void PlanarFriction::Compute(const mjModel* m, mjData* d, int instance) {
   const double v[2] = {d->actuator_velocity[out[0]], d->actuator_velocity[out[1]]};
   in.velocity = std::hypot(v[0], v[1]);
   double force[2];
+  implicit_step_ = false;
+  if (HasDeflection(p.law)) {
+    // A step that does not resolve the contact's deflection dynamics, k_t dt lambda_max(B) >=
+    // kUnresolvedDeflection (friction_law.h), is taken implicitly; the explicit force of the
+    // step's start deflection would chatter (stable only below 4).
+    PlanarResponse response;
+    ComputePlanarResponse(m, d, out, &scratch_, &response);
+    double stiffness = p.contact_stiffness;
+    if (p.law == Law::kGms) {
+      stiffness = 0.0;  // the elements stick in parallel
+      for (int i = 0; i < p.gms.count; ++i) stiffness += p.gms.stiffness[i];
+    }
+    const double dt = m->opt.timestep;
+    if (stiffness * dt * LargestEigenvalue<2>(response.B) >= kUnresolvedDeflection) {
+      LawInput mid = in;  // the deflection's update over the step, as advance takes it
+      mid.time = in.time + 0.5 * dt;
+      double end[2];
+      if (p.law == Law::kGms) {
+        double z[2 * kMaxGmsElements];
+        GatherGms(d, z);
+        const mjtNum* slipping =
+            d->plugin_state + m->plugin_stateadr[instance] + config_->slip_state;
+        double flags[kMaxGmsElements];
+        for (int i = 0; i < p.gms.count; ++i) flags[i] = slipping[i];
+        GmsImplicitDeflectionForce<2>(p, mid, z, flags, response.v_free, response.B, dt, force,
+                                      end, implicit_next_, implicit_slipping_);
+      } else {
+        const double z[2] = {d->act[config_->act_address[0]], d->act[config_->act_address[1]]};
+        VectorImplicitDeflectionForce<2>(p, mid, z, response.v_free, response.B, dt, force, end,
+                                         implicit_next_);
+      }
+      implicit_step_ = true;
+      d->actuator_force[out[0]] = -force[0];
+      d->actuator_force[out[1]] = -force[1];
+      return;
+    }
+  }
   if (p.law == Law::kGms) {
     double z[2 * kMaxGmsElements];
     GatherGms(d, z);
@@ -263,6 +312,19 @@ void PlanarFriction::Advance(const mjModel* m, mjData* d, int instance) {
   // sensor input does in vibrofriction.friction).
   config_->normal.Update(m, d, d->plugin_state + m->plugin_stateadr[instance]);
   if (!HasDeflection(config_->law.law)) return;
+  if (implicit_step_) {
+    // The deflection the step's force was computed with (VectorImplicitDeflectionForce).
+    const int count = config_->law.law == Law::kGms ? config_->law.gms.count : 1;
+    for (int i = 0; i < count; ++i) {
+      d->act[config_->act_address[0] + i] = implicit_next_[2 * i];
+      d->act[config_->act_address[1] + i] = implicit_next_[2 * i + 1];
+    }
+    if (config_->law.law == Law::kGms) {
+      mjtNum* slipping = d->plugin_state + m->plugin_stateadr[instance] + config_->slip_state;
+      for (int i = 0; i < count; ++i) slipping[i] = implicit_slipping_[i];
+    }
+    return;
+  }
   const double dt = m->opt.timestep;
   const int* out = config_->transmission.output;
   LawInput in = Input(m, d, instance);

@@ -18,6 +18,10 @@
 // Each law reduces exactly to the 1D law of vibrofriction.friction when v and z lie on one axis.
 // Step order as vibrofriction.friction: the force of step n uses (z_n, v_n); `advance` updates z
 // in closed form (Dahl, LuGre) or unconditionally stably (Dupont) with the new velocity v_{n+1}.
+// A step that does not resolve the deflection dynamics (k_t dt lambda_max(B) >= 1, B the
+// transmissions' response) is taken implicitly instead: the force of the deflection at the end
+// of the step, solved with the end-of-step velocity (VectorImplicitDeflectionForce,
+// GmsImplicitDeflectionForce), and that deflection kept.
 //
 // Normal load F_N = normal + normal_gain * (sensor value | contact normal force between
 // contact_geom1 and contact_geom2). Both the sensor and the contact force are those of the
@@ -98,6 +102,11 @@ class PlanarFriction {
 
   CachedConfig<PlanarConfig> config_;
   std::vector<mjtNum> scratch_;
+  // A step taken implicitly (k_t dt lambda_max(B) >= kUnresolvedDeflection): the deflections
+  // after it, interleaved z[2 i + axis], and the gms slip flags, which advance takes.
+  bool implicit_step_ = false;
+  double implicit_next_[2 * kMaxGmsElements] = {};
+  double implicit_slipping_[kMaxGmsElements] = {};
 };
 
 }  // namespace vibrofriction

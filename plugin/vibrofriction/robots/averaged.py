@@ -109,11 +109,14 @@ class AveragedTable:
 
     def contact_config(self, support: str, *,
                        axis: tuple[float, float, float] | None = None,
-                       torsion_radius_m: float | None = None) -> dict[str, str]:
+                       torsion_radius_m: float | None = None,
+                       support_geom: tuple[str, ...] | None = None) -> dict[str, str]:
         """Config of a vibrofriction.contact_averaged instance: the drop-in element for a free
         body on ``support`` vibrating along ``axis`` (the support body's frame; default: the
         table's vibration angle in the support's x-y plane). The normal load is MuJoCo's
-        contact force, so the table's normal_force_N only shaped the table."""
+        contact force, so the table's normal_force_N only shaped the table. ``support_geom``:
+        the names of the support's geoms that form the surface the part rests on (its other
+        geoms, walls and end stops, stay ordinary MuJoCo contacts); default: all of them."""
         if axis is None:
             angle = self.vibration.axis_angle_rad
             axis = (math.cos(angle), math.sin(angle), 0.0)
@@ -124,6 +127,8 @@ class AveragedTable:
         config["axis"] = " ".join(repr(float(a)) for a in axis)
         if torsion_radius_m is not None:
             config["torsion_radius"] = repr(float(torsion_radius_m))
+        if support_geom:
+            config["support_geom"] = " ".join(support_geom)
         return config
 
     def mjcf_instance(self, name: str, **kwargs) -> str:

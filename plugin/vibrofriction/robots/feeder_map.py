@@ -80,10 +80,13 @@ class FeederMap:
 
     def contact_config(self, support: str, *,
                        axis: tuple[float, float, float] | None = None,
-                       torsion_radius_m: float | None = None) -> dict[str, str]:
+                       torsion_radius_m: float | None = None,
+                       support_geom: tuple[str, ...] | None = None) -> dict[str, str]:
         """Config of a vibrofriction.contact_feeder instance for a part on ``support``. ``axis``:
         the throw line in the support's frame (its in-plane part is the conveying direction);
-        default (cos b, 0, sin b), a track along the support's x axis."""
+        default (cos b, 0, sin b), a track along the support's x axis. ``support_geom``: the
+        names of the support's geoms that form the track's surface (its other geoms, walls and
+        end stops, stay ordinary MuJoCo contacts); default: all of them."""
         if axis is None:
             b = self.feeder.throw_angle_rad
             axis = (math.cos(b), 0.0, math.sin(b))
@@ -96,6 +99,8 @@ class FeederMap:
         }
         if torsion_radius_m is not None:
             config["torsion_radius"] = repr(float(torsion_radius_m))
+        if support_geom:
+            config["support_geom"] = " ".join(support_geom)
         return config
 
     def mjcf_instance(self, name: str, support: str, **kwargs) -> str:
