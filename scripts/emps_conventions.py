@@ -25,7 +25,8 @@ import numpy as np
 from vibrofriction.rigs import rig as rig_module
 from vibrofriction.data.convert import convert_emps
 from vibrofriction.identify.machine_replay import MachineReplay, closed_loop_errors
-from vibrofriction.identify.replay import Replayer, prepare_replay
+from vibrofriction.identify.replay import Replayer
+from vibrofriction.identify.replays import prepare_replay
 from vibrofriction.params import FrictionParameters
 
 DEFAULT_DATA = Path(__file__).resolve().parents[1].parent / "shared/data/emps/DATA_EMPS.mat"

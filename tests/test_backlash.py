@@ -15,7 +15,7 @@ from vibrofriction.rigs import planar, rig
 from vibrofriction.oracle import reference
 from vibrofriction.commands.simulate import dataset_of
 from vibrofriction.data.datasets import Dataset
-from vibrofriction.identify.replay import prepare_replay
+from vibrofriction.identify.replays import prepare_replay
 from vibrofriction.errors import InputError
 from vibrofriction.identify import identify
 from vibrofriction.identify.simulation import identify_by_simulation

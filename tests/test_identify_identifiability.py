@@ -23,7 +23,8 @@ from vibrofriction.identify.identifiability import (BOUND_TOLERANCE, OUTLIER_ROB
                                                     bound_sides, identifiability,
                                                     residual_outliers)
 from vibrofriction.identify.model import Model, Scales
-from vibrofriction.identify.replay import Replayer, prepare_replay
+from vibrofriction.identify.replay import Replayer
+from vibrofriction.identify.replays import prepare_replay
 from vibrofriction.identify.report import report_json, report_markdown
 from vibrofriction.laws.run import run_law
 from vibrofriction.params import FrictionParameters

@@ -98,7 +98,8 @@ def test_inverse_path_writes_every_records_series(tmp_path, capsys) -> None:
 def _pushed_block(name: str, folder: Path, scene: Path, seed: int, scale: float) -> Path:
     """USER_SCENE's block (mass 2 kg, Coulomb 3 N) pushed by a measured force, its
     position measured (the truth from the scene itself, plus 1 um of noise)."""
-    from vibrofriction.identify.replay import Replayer, prepare_replay
+    from vibrofriction.identify.replay import Replayer
+    from vibrofriction.identify.replays import prepare_replay
     from vibrofriction.params import FrictionParameters
     t = np.arange(2000) * 1e-3
     push = scale * (5.0 * np.sin(2 * np.pi * 1.0 * t) + 1.0 * np.sin(2 * np.pi * 3.7 * t))

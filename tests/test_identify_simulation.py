@@ -20,7 +20,8 @@ from vibrofriction import cli
 from vibrofriction.rigs import rig
 from vibrofriction.commands.simulate import dataset_of
 from vibrofriction.data.datasets import Dataset, write_dataset
-from vibrofriction.identify.replay import Replayer, prepare_replay
+from vibrofriction.identify.replay import Replayer
+from vibrofriction.identify.replays import prepare_replay
 from vibrofriction.identify.simulation import identify_by_simulation
 from vibrofriction.params import FrictionParameters, RigParameters
 

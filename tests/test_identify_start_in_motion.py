@@ -19,7 +19,8 @@ from vibrofriction.data.datasets import Dataset, DatasetMetadata
 from vibrofriction.identify import identify
 from vibrofriction.identify.model import Model, Scales
 from vibrofriction.identify.record import prepare
-from vibrofriction.identify.replay import Replayer, prepare_replay
+from vibrofriction.identify.replay import Replayer
+from vibrofriction.identify.replays import prepare_replay
 from vibrofriction.identify.simulation import identify_by_simulation
 from vibrofriction.identify.start import starts_in_motion
 from vibrofriction.laws import run_law, steady_deflection_m

@@ -5,10 +5,14 @@ parameters; and the independent oracle (``vibrofriction.oracle``: scipy referenc
 limits, the feeder's exact reference) and the synthetic records made from it reach none of the
 native laws nor a MuJoCo model of them, not even through another module of the package or a
 subpackage's ``__init__``. (The package's own ``__init__``, which every import of a submodule
-runs, loads the plugin library; it is not the oracle's code and is left out.)"""
+runs, loads the plugin library; it is not the oracle's code and is left out.) Within
+identification (``vibrofriction.identify``) no module imports, directly or through others,
+lazily or not, one that imports it: a general module (the rig's replay) does not reach its
+specialisation (a machine's), and its package map names every module."""
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import vibrofriction
@@ -117,3 +121,53 @@ def test_the_oracle_reaches_none_of_the_native_laws() -> None:
         assert module in reached
         native = sorted(n for n in reached if _is_native(n))
         assert not native, (module, native)
+
+
+def _cycle(graph: dict[str, set[str]]) -> list[str]:
+    """A cycle of ``graph`` (module -> the modules it imports) as its path, [] when none."""
+    state: dict[str, int] = {}  # 1: on the current path, 2: done
+    path: list[str] = []
+
+    def visit(name: str) -> list[str]:
+        state[name] = 1
+        path.append(name)
+        for other in sorted(graph[name]):
+            if state.get(other) == 1:
+                return path[path.index(other):] + [other]
+            if other not in state:
+                found = visit(other)
+                if found:
+                    return found
+        path.pop()
+        state[name] = 2
+        return []
+
+    for name in sorted(graph):
+        if name not in state:
+            found = visit(name)
+            if found:
+                return found
+    return []
+
+
+def test_the_cycle_finder_finds_a_cycle() -> None:
+    assert _cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == ["a", "b", "c", "a"]
+    assert _cycle({"a": {"b"}, "b": set(), "c": {"a", "b"}}) == []
+
+
+def test_identification_has_no_import_cycle() -> None:
+    """Imports inside functions count too: a lazy import only hides a cycle. (The
+    subpackage's ``__init__`` is left out: importing any module runs it, and it imports the
+    modules it exports.)"""
+    modules = _modules("identify")[1:]
+    assert len(modules) >= 18
+    graph = {m: {n for n in _imports(_module_path(m)) if n in modules and n != m}
+             for m in modules}
+    assert _cycle(graph) == []
+
+
+def test_the_identification_package_map_lists_every_module() -> None:
+    doc = ast.get_docstring(ast.parse((PACKAGE / "identify" / "__init__.py").read_text()))
+    listed = re.findall(r"^  (\w+) \.{2,} ", doc, re.M)
+    stems = [m.rpartition(".")[2] for m in _modules("identify")[1:]]
+    assert sorted(listed) == sorted(stems)

@@ -16,7 +16,8 @@ from vibrofriction.data.convert import convert_emps
 from vibrofriction.data.datasets import Dataset, DatasetMetadata, write_dataset
 from vibrofriction.errors import InputError
 from vibrofriction.identify.machine_replay import BUNDLED, closed_loop_errors
-from vibrofriction.identify.replay import Replayer, prepare_replay
+from vibrofriction.identify.replay import Replayer
+from vibrofriction.identify.replays import prepare_replay
 from vibrofriction.identify.simulation import identify_by_simulation
 from vibrofriction.params import FrictionParameters
 

@@ -19,9 +19,8 @@ from .common import (UsageError, check_output_folder, check_replaceable_folder, 
                      parse_overrides, write_json)
 from ..data.datasets import Dataset, all_or_nothing, read_dataset
 from ..identify import MIN_IMPROVEMENT, identify
-from ..identify.model import INVERSE_EFFECTS, RIG_EFFECTS
+from ..identify.model import IDENTIFIABLE_LAWS, INVERSE_EFFECTS, RIG_EFFECTS
 from ..identify.report import report_json, rig_replay, write_report
-from ..params import LAWS
 
 HELP = ("fit a friction law to a measured record (dataset format), trace the residual to "
         "missing effects (viscous, stribeck, asymmetry, position_ripple, "
@@ -41,7 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--validate", type=Path, action="append", default=[], metavar="DATA",
                         help="held-out record (repeatable); errors reported, and an effect "
                              "must also lower the held-out error to be selected")
-    parser.add_argument("--law", default="lugre", choices=LAWS,
+    parser.add_argument("--law", default="lugre", choices=IDENTIFIABLE_LAWS,
                         help="friction law (default lugre: the law with every effect of the "
                              "vocabulary, Stribeck included)")
     parser.add_argument("--out", type=Path, default=None, metavar="DIR",
@@ -129,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
     def progress(message: str) -> None:
         print(f"[{time.monotonic() - started:6.1f} s] {message}", file=sys.stderr, flush=True)
 
-    method, reason = _method(args.method, train)
+    method, reason = _method(args.method, train, model_option=args.model is not None)
     if method == "simulation":
         return _run_simulation(args, train, held, out, declared, reason, progress)
     result = identify(train, held, law=args.law, declared=declared, substeps=args.substeps,
@@ -166,8 +165,8 @@ def _check_out(out: Path, args: argparse.Namespace) -> None:
                              "whole; name another folder")
 
 
-def _method(requested: str, train: Dataset) -> tuple[str, str]:
-    """Which identification path runs, and why."""
+def _method(requested: str, train: Dataset, model_option: bool = False) -> tuple[str, str]:
+    """Which identification path runs, and why (``model_option``: --model named the model)."""
     meta = train.metadata
     rig_record = bool(meta.drive_stiffness_N_per_m and meta.drive_velocity_m_per_s)
     if requested == "inverse":
@@ -175,8 +174,9 @@ def _method(requested: str, train: Dataset) -> tuple[str, str]:
     if requested == "simulation":
         return "simulation", "asked for with --method simulation"
     if meta.model not in (None, "rig"):
-        return "simulation", (f"the sidecar names the model ({meta.model!r}): that MuJoCo "
-                              "scene, in closed loop, is fitted to what the record measured")
+        named = "--model names" if model_option else "the sidecar names"
+        return "simulation", (f"{named} the model ({meta.model!r}): that MuJoCo scene, in "
+                              "closed loop, is fitted to what the record measured")
     if rig_record:
         return "simulation", ("a rig record (drive spring and drive velocity in the sidecar): "
                               "the MuJoCo rig scene is fitted to what the record measured")

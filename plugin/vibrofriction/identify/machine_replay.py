@@ -327,6 +327,9 @@ class MachineReplay(SampleGrid):
                 else:
                     config.pop(key, None)
         rig_module.set_plugin_config(spec, scene.friction_instance, config)
+        # one deflection per element for law gms, one for every other law
+        spec.actuator(FRICTION_ACTUATOR).actdim = len(friction.gms_stiffness_N_per_m) \
+            if friction.law == "gms" else 1
         if scene.controller is not None:
             # The controller samples every `substeps` steps exactly: its period is the record's
             # sample interval, the one the timestep divides (a period that is not a whole

@@ -58,7 +58,28 @@ LAW_PARAMETERS: dict[str, tuple[str, ...]] = {
     "dupont": ("friction_coefficient", "contact_stiffness_N_per_m", "breakaway_ratio",
                "bristle_damping_N_s_per_m"),
     "lugre": ("friction_coefficient", "contact_stiffness_N_per_m", "bristle_damping_N_s_per_m"),
+    # Maxwell-slip elements (their presliding curve): the total stiffness and the spread of
+    # the elements' break-away deflections (``gms_elements``)
+    "gms": ("friction_coefficient", "contact_stiffness_N_per_m", "gms_spread"),
 }
+IDENTIFIABLE_LAWS = tuple(LAW_PARAMETERS)
+# Law gms is fitted with this many elements of equal weight whose break-away deflections
+# w_i mu F_N / k_i lie evenly on a log scale between d and gms_spread d: the total stiffness
+# sets the presliding slope, the spread how gradually the elements let go (1: all at once, the
+# elasto-plastic limit). A record of the presliding loop informs two numbers of that curve,
+# not every element's stiffness and weight.
+GMS_FITTED_ELEMENTS = 3
+
+
+def gms_elements(total_stiffness_N_per_m: float, spread: float,
+                 count: int = GMS_FITTED_ELEMENTS) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """(stiffnesses, weights) of ``count`` equal-weight elements with this total stiffness,
+    their break-away deflections spread by the ratio ``spread`` (geometric)."""
+    weights = tuple(1.0 / count for _ in range(count))
+    ratios = [spread ** (i / (count - 1)) if count > 1 else 1.0 for i in range(count)]
+    shares = [w / r for w, r in zip(weights, ratios)]  # k_i proportional to w_i / d_i
+    stiffness = tuple(total_stiffness_N_per_m * c / sum(shares) for c in shares)
+    return stiffness, weights
 
 
 @dataclass(frozen=True)
@@ -138,6 +159,7 @@ def parameter_table(law: str, effects: Sequence[str], fit_mass: bool,
                                            f * 1e12 / scales.travel_m,
                                            f * 100 / scales.travel_m, log=True),
         "alpha": Param("alpha", 0.05, 6.0, 1.0),
+        "gms_spread": Param("gms_spread", 1.0, 1e4, 10.0, log=True),
         "breakaway_ratio": Param("breakaway_ratio", 0.02, 0.98, 1.0),
         "bristle_damping_N_s_per_m": Param("bristle_damping_N_s_per_m", 0.0, 1e6 * f / v,
                                            f / v),
@@ -351,6 +373,10 @@ class Model:
             fields["velocity_map_knots_m_per_s"] = self.velocity_map_knots_m_per_s
             fields["velocity_map_factors"] = tuple(values[n]
                                                    for n in EFFECT_FIELDS["velocity_map"])
+        if self.law == "gms":
+            fields["gms_stiffness_N_per_m"], fields["gms_weights"] = gms_elements(
+                values.get("contact_stiffness_N_per_m", self.base.contact_stiffness_N_per_m),
+                values.get("gms_spread", 10.0))
         friction = replace(self.base, **fields)
         if "normal_force_modulation" in values and vibration_frequency_Hz:
             friction = replace(friction,
@@ -420,7 +446,7 @@ def forward_steps(q: np.ndarray, upper: np.ndarray, count: int, relative_step: f
 
 def _neutral(p: Param) -> float:
     """Value of a parameter that switches its effect off (or a middle value)."""
-    neutral = {"static_ratio": 1.0, "alpha": 1.0, "breakaway_ratio": 0.7}
+    neutral = {"static_ratio": 1.0, "alpha": 1.0, "breakaway_ratio": 0.7, "gms_spread": 10.0}
     if p.name in neutral:
         return neutral[p.name]
     if p.log:
@@ -451,5 +477,5 @@ def first_order_lag(signal: np.ndarray, time_s: np.ndarray, tau_s: float,
 
 ProgressFn = Callable[[str], None]
 
-__all__ = ["EFFECTS", "MAP_EFFECTS", "CONTACT_EFFECTS", "INVERSE_EFFECTS", "LAW_PARAMETERS", "EFFECT_FIELDS", "EFFECT_INTERNALS", "Param", "Scales",
+__all__ = ["IDENTIFIABLE_LAWS", "gms_elements", "GMS_FITTED_ELEMENTS", "EFFECTS", "MAP_EFFECTS", "CONTACT_EFFECTS", "INVERSE_EFFECTS", "LAW_PARAMETERS", "EFFECT_FIELDS", "EFFECT_INTERNALS", "Param", "Scales",
            "Model", "first_order_lag", "forward_steps"]

@@ -177,10 +177,20 @@ def deflection_at_rest(friction: FrictionParameters, force_N: float,
 
 def contact_at_rest(model: mujoco.MjModel, data: mujoco.MjData, friction: FrictionParameters,
                     force_N: float, normal_force_N: float) -> None:
-    """``deflection_at_rest`` in ``data.act``; nothing for Coulomb."""
-    if friction.law != "coulomb" and model.na:
-        data.act[model.actuator("friction").actadr] = deflection_at_rest(
-            friction, force_N, normal_force_N)
+    """``deflection_at_rest`` in ``data.act`` (law gms: every element at the deflection the
+    elements' total stiffness holds the force with, none slipped); nothing for Coulomb."""
+    if friction.law == "coulomb" or not model.na:
+        return
+    actuator = model.actuator("friction")
+    if friction.law == "gms":
+        total = float(sum(friction.gms_stiffness_N_per_m))
+        bound = _ELASTIC_FRACTION * friction.friction_coefficient * \
+            max(1.0, friction.static_ratio) * normal_force_N
+        count = len(friction.gms_stiffness_N_per_m)
+        data.act[actuator.actadr[0]:actuator.actadr[0] + count] = \
+            min(max(force_N, -bound), bound) / total
+        return
+    data.act[actuator.actadr] = deflection_at_rest(friction, force_N, normal_force_N)
 
 
 def contact_sliding(model: mujoco.MjModel, data: mujoco.MjData, friction: FrictionParameters,
@@ -606,12 +616,13 @@ def _channels(model: mujoco.MjModel, rig: RigParameters, sensordata: np.ndarray,
     return out
 
 
-def prepare_replay(dataset: Dataset, *, substeps: int | None = None) -> RigReplay:
-    """Set a record up for replay in the rig (or in the machine its sidecar's ``model``
-    names); InputError naming what is missing otherwise."""
+def prepare_rig_replay(dataset: Dataset, *, substeps: int | None = None) -> RigReplay:
+    """Set a rig record up for replay in the rig; InputError naming what is missing
+    otherwise. (``replays.prepare_replay`` sends a record to the rig or to the machine its
+    sidecar's ``model`` names.)"""
     if dataset.metadata.model not in (None, RIG_MODEL):
-        from .machine_replay import prepare_machine_replay
-        return prepare_machine_replay(dataset, substeps=substeps)
+        raise ValueError(f"{dataset.name}: a record of the model {dataset.metadata.model!r}, "
+                         "not the rig: replay it with replays.prepare_replay")
     where = str(dataset.source_path or dataset.name)
     meta = dataset.metadata
     columns = dataset.columns
@@ -1122,5 +1133,5 @@ def noise_sd(values: np.ndarray) -> float:
     return max(white_noise_sd(values), NOISE_FLOOR_OF_RANGE * span)
 
 
-__all__ = ["RigReplay", "Replayer", "prepare_replay", "noise_sd", "OUTPUT_CHANNELS",
+__all__ = ["RigReplay", "Replayer", "prepare_rig_replay", "noise_sd", "OUTPUT_CHANNELS",
            "MIN_STEPS_PER_PERIOD"]

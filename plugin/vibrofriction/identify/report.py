@@ -35,6 +35,8 @@ def parameters(result: Identification, fit: FitResult) -> dict[str, float]:
         out["mass_kg"] = float(mass)
     out["drive_damping_N_s_per_m"] = float(fit.values.get("drive_damping_N_s_per_m", 0.0))
     out["normal_force_N"] = float(np.median(record.normal_force_N))
+    if "gms_spread" in fit.values:  # the coordinate the elements' lists were fitted in
+        out["gms_spread"] = float(fit.values["gms_spread"])
     return {k: _finite(v) for k, v in out.items()}
 
 

@@ -16,14 +16,15 @@ model M; both are fitted by least squares on the training record. E is *justifie
    of the effect's own contribution -- otherwise a disturbance outside the vocabulary could be
    mistaken for it.
 
-Forward selection: every applicable candidate is fitted; the justified one with the lowest dBIC
-joins the model; repeat until none is justified. Nothing is selected when nothing is justified.
+Forward selection (``driver.select``, the simulation path's too): every applicable candidate is
+fitted; the justified one with the lowest dBIC joins the model; repeat until none is justified.
+Nothing is selected when nothing is justified.
 """
 from __future__ import annotations
 
 import math
 import time
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Executor, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Callable, Mapping, Sequence
 
@@ -32,11 +33,13 @@ import numpy as np
 from ..rigs import rig as rig_module
 from ..data.datasets import Dataset
 from ..errors import InputError
-from ..params import LAWS, FrictionParameters
+from ..params import FrictionParameters
 from ..vocabulary import TERMS_BY_NAME
 from .analysis import ResidualAnalysis, analyse
+from .driver import select
 from .fit import FitResult, Problem
-from .model import EFFECT_INTERNALS, INVERSE_EFFECTS, RIG_EFFECTS, Model, Scales
+from .model import (EFFECT_INTERNALS, IDENTIFIABLE_LAWS, INVERSE_EFFECTS, RIG_EFFECTS, Model,
+                    Scales)
 from .record import Record, prepare
 from .replay import MIN_SAMPLES
 
@@ -118,45 +121,57 @@ def identify(train: Dataset, validation: Sequence[Dataset] = (), *, law: str = "
     baseline = problem.fit(model, start)
     say(f"baseline: RMSE {baseline.train.rmse_N:.4g} N, relerr {baseline.train.relerr_pct:.3g} %")
     baseline_analysis = analyse(record, baseline.residual)
-    current = baseline
     remaining = [e for e in INVERSE_EFFECTS if e not in declared and e not in skipped]
-    candidates: dict[str, Candidate] = {}
-    rounds: list[list[Candidate]] = []
-    selected: list[str] = []
     workers = threads or min(len(remaining) or 1, rig_module._cpu_count())
     with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
-        while remaining:
-            index = len(rounds) + 1
-            say(f"round {index}: fitting {len(remaining)} candidate(s): {', '.join(remaining)}")
-            jobs = [pool.submit(_candidate, problem, current, effect, scales, index,
-                                min_improvement, bic_threshold) for effect in remaining]
-            evaluated = [job.result() for job in jobs]
-            for c in evaluated:
-                candidates[c.effect] = c
-                say(f"  {c.effect:<24s} dBIC {c.delta_bic:10.1f}  RMSE "
-                    f"{c.fit.train.rmse_N:.4g} N ({100 * c.train_drop:+.1f} %)  "
-                    f"[{c.fit.nfev} evaluations, {c.seconds:.1f} s]  "
-                    f"{'justified' if c.justified else 'no: ' + c.reason}")
-            rounds.append(evaluated)
-            justified = [c for c in evaluated if c.justified]
-            if not justified:
-                break
-            best = min(justified, key=lambda c: c.delta_bic)
-            selected.append(best.effect)
-            current = best.fit
-            remaining.remove(best.effect)
-            say(f"round {index}: selected {best.effect}")
-    say("selected: " + (", ".join(selected) if selected else "nothing"))
+        back_end = _InverseRounds(problem, scales, min_improvement, bic_threshold, pool, say)
+        selection = select(back_end, baseline, remaining, say)
+    current, selected = selection.final, selection.selected
     final_analysis = analyse(record, current.residual)
     exposing = {e: _exposing_regressor(e, baseline_analysis) for e in selected}
     return Identification(
         law=law, declared=declared, train=record, validation=held, baseline=baseline,
-        final=current, candidates=candidates, rounds=rounds, selected=selected,
-        skipped=skipped, baseline_analysis=baseline_analysis, final_analysis=final_analysis,
-        exposing=exposing,
+        final=current, candidates=selection.candidates, rounds=selection.rounds,
+        selected=selected, skipped=skipped, baseline_analysis=baseline_analysis,
+        final_analysis=final_analysis, exposing=exposing,
         settings={"substeps": substeps, "lowpass_Hz": lowpass_Hz,
                   "min_improvement": min_improvement, "bic_threshold": bic_threshold,
                   "fit_mass": fit_mass})
+
+
+class _InverseRounds:
+    """The inverse path's rounds for ``driver.select``: every candidate fitted (on the
+    ``pool``'s threads) and judged; accepted as fitted; no backward step."""
+
+    round_action = "fitting"
+
+    def __init__(self, problem: Problem, scales: Scales, min_improvement: float,
+                 bic_threshold: float, pool: Executor, say: ProgressFn):
+        self.problem, self.scales, self.pool, self.say = problem, scales, pool, say
+        self.min_improvement, self.bic_threshold = min_improvement, bic_threshold
+
+    def evaluate_round(self, current: FitResult, remaining: Sequence[str],
+                       index: int) -> list[Candidate]:
+        jobs = [self.pool.submit(_candidate, self.problem, current, effect, self.scales,
+                                 index, self.min_improvement, self.bic_threshold)
+                for effect in remaining]
+        evaluated = [job.result() for job in jobs]
+        for c in evaluated:
+            self.say(f"  {c.effect:<24s} dBIC {c.delta_bic:10.1f}  RMSE "
+                     f"{c.fit.train.rmse_N:.4g} N ({100 * c.train_drop:+.1f} %)  "
+                     f"[{c.fit.nfev} evaluations, {c.seconds:.1f} s]  "
+                     f"{'justified' if c.justified else 'no: ' + c.reason}")
+        return evaluated
+
+    def accept(self, best: Candidate, current: FitResult, index: int) -> Candidate:
+        return best
+
+    def selected_note(self, accepted: Candidate) -> str:
+        return ""
+
+    def backward_step(self, current: FitResult, selected: list[str], index: int,
+                      final: bool) -> FitResult:
+        return current
 
 
 # ---------------------------------------------------------------------------- applicability
@@ -191,8 +206,9 @@ def check_law_and_effects(law: str, declared: Sequence[str],
                           effects: Sequence[str] = INVERSE_EFFECTS) -> None:
     """InputError naming an unknown law or effect (both identification paths: the simulation
     path passes its own ``effects``, the vocabulary without the maps)."""
-    if law not in LAWS:
-        raise InputError(f"unknown friction law {law!r}; use one of: {', '.join(LAWS)}")
+    if law not in IDENTIFIABLE_LAWS:
+        raise InputError(f"unknown friction law {law!r}; use one of: "
+                         f"{', '.join(IDENTIFIABLE_LAWS)}")
     unknown = [e for e in declared if e not in effects]
     if unknown:
         maps = [e for e in unknown if e in INVERSE_EFFECTS]

@@ -26,13 +26,14 @@ one over the whole stage, one over growing windows of it (``STILL_WINDOWS``), ea
 the last, so that the contact's loading fixes the stiffness before a stick-slip's timing can
 trap the fit.
 
-Selection (forward, as the inverse path). Each round screens every candidate linearized at the
-round's model (in round 1 at each local optimum of the baseline): the residual projected on the
-model's and the effect's sensitivities. The ``SCREENED_FITS`` best with a linearized dBIC below
-0 (and a linearized RMSE drop of at least ``LINEARIZED_DROP_FRACTION`` of the improvement asked,
-except for the effects far from linear) are fitted; the ``CONVERGED_LEADERS`` best justified
-ones are then fitted to convergence before the choice. After each choice a backward step drops
-an earlier effect that the same test no longer justifies. A candidate effect is justified when
+Selection (forward, ``driver.select``, as the inverse path). Each round screens every candidate
+linearized at the round's model (in round 1 at each local optimum of the baseline): the residual
+projected on the model's and the effect's sensitivities. The ``SCREENED_FITS`` best with a
+linearized dBIC below 0 (and a linearized RMSE drop of at least ``LINEARIZED_DROP_FRACTION`` of
+the improvement asked, except for the effects far from linear) are fitted; the
+``CONVERGED_LEADERS`` best justified ones are then fitted to convergence before the choice.
+After each choice a backward step drops an earlier effect that the same test no longer
+justifies. A candidate effect is justified when
 
 1. dBIC = n_eff ln((RSS_E + F)/(RSS_M + F)) + (k_E - k_M) ln(n_eff) < ``BIC_THRESHOLD``, with
    n_eff from the autocorrelation of the current model's residual and F the simulator's own
@@ -57,10 +58,11 @@ from ..data.datasets import Dataset
 from ..errors import InputError
 from ..params import FrictionParameters, RigParameters, lugre_default_bristle_damping
 from .analysis import effective_samples, uniform_spectrum
+from .driver import select
 from .fit import Metrics, _metrics
 from .model import EFFECT_INTERNALS, SIMULATION_EFFECTS, Model, Scales, forward_steps
-from .replay import (MAX_SUBSTEPS, MIN_SAMPLES, Replayer, RigReplay, prepare_replay,
-                     stick_phase_steps)
+from .replay import MAX_SUBSTEPS, MIN_SAMPLES, Replayer, RigReplay, stick_phase_steps
+from .replays import prepare_replay
 from .shooting import MultipleShooting
 from .selection import (BIC_THRESHOLD, MIN_IMPROVEMENT, check_identifiable,
                         check_law_and_effects)
@@ -121,6 +123,25 @@ _STEP_FRACTIONS = (1.0, 0.5, 0.25, 0.1)  # of a candidate's linearized step, tri
 # comes back exact (scripts/bench_identify.py)
 _LEVEL_SCAN = (1.0, 1.25, 1.6, 2.0, 2.5, 3.2, 4.0, 5.0, 6.3)
 _DEFLECTION_SCAN_M = np.logspace(-10, -5, 16)  # characteristic deflection mu F_N / k_t
+# ... and on up, at the same spacing, to this share of the record's travel: a machine's guide
+# or a damper's compliance deflects by tenths of a millimetre (a 24.7 kg carriage's 2e5 N/m
+# at 38 N: 0.19 mm), which the rig's micrometre grid never reached (a gms fit then stayed at
+# 1e11 N/m, 99 % off).
+DEFLECTION_SCAN_TRAVEL_SHARE = 0.05
+
+
+def _travel_m(replay) -> float:
+    """The record's measured travel (1 mm when it measures no position)."""
+    return float(np.ptp(replay.measured.get("position_m", [0.0]))) or 1e-3
+
+
+def deflection_scan_m(travel_m: float) -> np.ndarray:
+    """The scanned characteristic deflections for a record with this travel."""
+    step = float(np.log10(_DEFLECTION_SCAN_M[1] / _DEFLECTION_SCAN_M[0]))
+    top = math.log10(max(DEFLECTION_SCAN_TRAVEL_SHARE * travel_m, _DEFLECTION_SCAN_M[-1]))
+    extra = int(math.floor((top - math.log10(_DEFLECTION_SCAN_M[-1])) / step + 1e-9))
+    return np.concatenate([_DEFLECTION_SCAN_M,
+                           _DEFLECTION_SCAN_M[-1] * 10 ** (step * np.arange(1, extra + 1))])
 _BREAKAWAY_SCAN = (0.3, 0.6, 0.85)  # Dupont
 _STRIBECK_SCAN = np.logspace(-1.5, 0.5, 6)  # v_s over the velocity scale (rms support speed)
 _STRIBECK_RATIOS = (1.2, 1.5, 2.0)
@@ -579,6 +600,8 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
               min_improvement: float, bic_threshold: float, say: ProgressFn,
               started: float, scan: tuple | None = None,
               still: Dataset | None = None, refine: bool = False) -> SimIdentification:
+    """The baseline (``_baseline``), then forward selection (``driver.select`` over
+    ``_SimulationRounds``); ``_Unresolved`` when the baseline asks for a finer timestep."""
     replay = problem.train
     fit_mass = not replay.mass_known
     say(f"{replay.name}: {replay.n} samples, measured {', '.join(replay.channels)}; "
@@ -590,6 +613,57 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
         (f", {len(problem.validation)} held-out record(s)" if problem.validation else ""))
     skipped = _not_applicable(replay, law, declared)
     declared = tuple(e for e in SIMULATION_EFFECTS if e in declared and e not in skipped)
+    baseline = _baseline(problem, law, declared, fit_mass, say, scan, still, refine)
+    back_end = _SimulationRounds(problem, baseline.scales, baseline.local, declared,
+                                 min_improvement, bic_threshold, say)
+    remaining = [e for e in SIMULATION_EFFECTS if e not in declared and e not in skipped]
+    selection = select(back_end, baseline.fit, remaining, say)
+    current = selection.final
+    errors = problem.standard_errors(current)
+    say("final: " + ", ".join(f"{n} {current.values[n]:.6g}" +
+                              (f" +- {e:.2g}" if e is not None else "")
+                              for n, e in errors.items()))
+    peaks = _residual_peaks(problem, current)
+    closed_loop = None
+    if hasattr(replay, "scene"):
+        closed_loop = {label: _closed_loop_errors(problem, fit)
+                       for label, fit in (("baseline", baseline.fit), ("final", current))}
+    return SimIdentification(
+        law=law, declared=declared, train=replay, validation=problem.validation,
+        primary=problem.primary, baseline=baseline.fit, final=current,
+        candidates=selection.candidates, rounds=selection.rounds,
+        selected=selection.selected, skipped=skipped, dropped=back_end.dropped,
+        numerical_floor=problem.floor,
+        residual_peaks_Hz=peaks,
+        settings={"method": "simulation", "substeps": replay.substeps,
+                  "steps_per_sample": replay.steps_per_sample,
+                  "timestep_s": replay.timestep_s, "min_improvement": min_improvement,
+                  "bic_threshold": bic_threshold, "fit_mass": fit_mass,
+                  "noise_sd": dict(problem.noise), "stick_phases": baseline.stick_phases,
+                  "baseline_start": baseline.start,
+                  "support_still": bool(getattr(replay, "support_still", False))},
+        simulations=problem.simulations, seconds=time.monotonic() - started,
+        standard_errors=errors, closed_loop=closed_loop)
+
+
+# ------------------------------------------------------------------------------- baseline
+
+@dataclass(frozen=True, eq=False)
+class _Baseline:
+    fit: SimFit  # the best
+    local: list[SimFit]  # its distinct local optima, best first (``fit`` among them)
+    scales: Scales
+    start: str  # where the best fit's start came from
+    stick_phases: int  # of a stick-slip record (0: none, or not looked for)
+
+
+def _baseline(problem: SimulationProblem, law: str, declared: Sequence[str], fit_mass: bool,
+              say: ProgressFn, scan: tuple | None, still: Dataset | None,
+              refine: bool) -> _Baseline:
+    """The baseline fitted from every start (the scan's, the still stage's, a stick-slip
+    record's segmented ones, the Stribeck restarts), its channels reweighted and the
+    simulator's error floor set (``_check_timestep``)."""
+    replay = problem.train
     # (a scan carried over from a coarser timestep: the local optima found there, each with
     # where its start came from; a stick-slip record's segmented stage is not run again)
     scales, starts, *carried = scan or _start(problem, law, fit_mass, declared)
@@ -608,40 +682,73 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
         f"from the {len(starts)} best start(s) of a scan"))
     # Several starts: a record that measures little of the contact (position and drive force
     # only) has more than one basin in the contact stiffness.
+    scanned = len(starts)
     if still is not None and not refining:
-        # The stage before the vibration shows the contact alone (pre-sliding, breakaway):
-        # fitted at once and over growing windows of it, it gives two more starts (at once
-        # was measured the better start of a position-only record with a hidden Stribeck
-        # peak; the windows, of a noise-free record of a LuGre law with its peak).
-        start = starts[0]
-        stage = SimulationProblem(prepare_replay(still, substeps=replay.substeps), [], law,
-                                  problem.runner.threads)
+        starts = [*starts, *_still_starts(problem, model, still, starts[0], say)]
+    fits, origin = _fit_starts(problem, model, starts, scanned, carried_origins, say)
+    stick_phases = _fit_segmented_starts(problem, model, fits, origin, say) \
+        if isinstance(replay, RigReplay) and not carried_origins else 0
+    if "stribeck" in model.effects and not refining:
+        _fit_stribeck_restarts(problem, model, fits, origin, say)
+    local = _distinct(problem, sorted(fits, key=lambda fit: fit.rss))
+    baseline = local[0]
+    baseline_start = origin.get(id(baseline), "the scan")
+    if len(replay.channels) > 1:
+        baseline, local = _reweighted(problem, model, local, say)
+    _check_timestep(problem, model, scales, baseline, local, origin, refine, say)
+    return _Baseline(fit=baseline, local=local, scales=scales, start=baseline_start,
+                     stick_phases=stick_phases)
+
+
+def _still_starts(problem: SimulationProblem, model: Model, still: Dataset,
+                  start: dict[str, float], say: ProgressFn) -> list[dict[str, float]]:
+    """Two more baseline starts from the stage before the vibration, which shows the contact
+    alone (pre-sliding, breakaway): fitted at once, and over growing windows of it
+    (``STILL_WINDOWS``) each from the last, from ``start`` (at once was measured the better
+    start of a position-only record with a hidden Stribeck peak; the windows, of a
+    noise-free record of a LuGre law with its peak)."""
+    substeps = problem.train.substeps
+    stage = SimulationProblem(prepare_replay(still, substeps=substeps), [], problem.law,
+                              problem.runner.threads)
+    try:
+        at_once = model.internal_values(stage.fit(model, start, BASELINE_EVALUATIONS).q)
+    finally:
+        stage.close()
+    for fraction in STILL_WINDOWS:
+        rows = max(4 * MIN_SAMPLES, int(fraction * still.n_rows))
+        window = prepare_replay(_first_rows(still, rows), substeps=substeps)
+        stage = SimulationProblem(window, [], problem.law, problem.runner.threads)
         try:
-            at_once = model.internal_values(stage.fit(model, start, BASELINE_EVALUATIONS).q)
+            start = model.internal_values(stage.fit(model, start, BASELINE_EVALUATIONS).q)
         finally:
             stage.close()
-        for fraction in STILL_WINDOWS:
-            rows = max(4 * MIN_SAMPLES, int(fraction * still.n_rows))
-            window = prepare_replay(_first_rows(still, rows), substeps=replay.substeps)
-            stage = SimulationProblem(window, [], law, problem.runner.threads)
-            try:
-                start = model.internal_values(stage.fit(model, start, BASELINE_EVALUATIONS).q)
-            finally:
-                stage.close()
-        starts = [*starts, at_once, start]
-        say(f"baseline: the {still.n_rows} samples before the vibration starts, fitted at "
-            f"once and over {len(STILL_WINDOWS)} growing windows, give two more starts")
+    say(f"baseline: the {still.n_rows} samples before the vibration starts, fitted at "
+        f"once and over {len(STILL_WINDOWS)} growing windows, give two more starts")
+    return [at_once, start]
+
+
+def _race(fits: Sequence[SimFit]) -> tuple[int, float]:
+    """A later start's race against the best baseline fit so far (``RACE_RATIO``)."""
+    return RACE_EVALUATIONS, RACE_RATIO * min(f.rss for f in fits)
+
+
+def _fit_starts(problem: SimulationProblem, model: Model, starts: Sequence[dict[str, float]],
+                scanned: int, carried_origins: Sequence[str] | None, say: ProgressFn
+                ) -> tuple[list[SimFit], dict[int, str]]:
+    """The baseline fitted from each start (the first ``scanned`` from the scan, racing the
+    best so far; the others the still stage's); with ``carried_origins``, a finer timestep's
+    refit, only the first is fitted and the others are carried as they stand. Returns the
+    fits and where each one's start came from (by ``id``, for the report)."""
+    refining = carried_origins is not None
     fits: list[SimFit] = []
     origin: dict[int, str] = {}  # id(fit) -> where its start came from (for the report)
-    scanned = len(starts) - (2 if still is not None and not refining else 0)
     for index, start in enumerate(starts):
         if refining and index > 0:
             fits.append(problem.result(model, model.internal(start)))
             origin[id(fits[-1])] = carried_origins[index]
             continue
         # (the still stage's starts are fitted in full: they stand for another basin)
-        race = (RACE_EVALUATIONS, RACE_RATIO * min(f.rss for f in fits)) \
-            if fits and index < scanned else None
+        race = _race(fits) if fits and index < scanned else None
         fit = problem.fit(model, start, BASELINE_EVALUATIONS, race,
                           label=f"baseline: start {index + 1} of {len(starts)}")
         if fit is not None:
@@ -651,11 +758,17 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
     if len(fits) < len(starts):
         say(f"baseline: {len(starts) - len(fits)} start(s) abandoned, still above "
             f"{RACE_RATIO:g} times the best fit's RSS after {RACE_EVALUATIONS} evaluations")
-    stick_phases, segmented = _segmented_starts(problem, model, say) \
-        if isinstance(replay, RigReplay) and not carried_origins else (0, [])
+    return fits, origin
+
+
+def _fit_segmented_starts(problem: SimulationProblem, model: Model, fits: list[SimFit],
+                          origin: dict[int, str], say: ProgressFn) -> int:
+    """The baseline fitted from a stick-slip record's segmented starts
+    (``_segmented_starts``), added to ``fits`` and ``origin``; returns the stick phases."""
+    stick_phases, segmented = _segmented_starts(problem, model, say)
     for index, (label, start) in enumerate(segmented):
         # (the first, multiple shooting's, is fitted in full; the others race it)
-        race = (RACE_EVALUATIONS, RACE_RATIO * min(f.rss for f in fits)) if index else None
+        race = _race(fits) if index else None
         fit = problem.fit(model, start, BASELINE_EVALUATIONS, race,
                           label=f"baseline: from {label}")
         if fit is not None:
@@ -665,31 +778,49 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
             (f"{problem.primary} relerr {fit.train.relerr_pct:.3g} % over the whole record "
              f"({fit.nfev} evaluations)" if fit is not None else
              f"abandoned after {RACE_EVALUATIONS} evaluations"))
-    if "stribeck" in model.effects and not refining:
-        restarts = _stribeck_restarts(model, min(fits, key=lambda fit: fit.rss))
-        for index, start in enumerate(restarts):
-            # (the first is fitted in full: from the baseline's basin it is far at first)
-            race = (RACE_EVALUATIONS, RACE_RATIO * min(f.rss for f in fits)) if index else None
-            fit = problem.fit(model, start, BASELINE_EVALUATIONS, race,
-                              label=f"baseline: Stribeck restart {index + 1} of "
-                                    f"{len(restarts)}")
-            if fit is not None:
-                fits.append(fit)
-                origin[id(fit)] = "a Stribeck restart"
-        say(f"baseline: the Stribeck curve fitted again from {len(restarts)} shapes at the "
-            "best fit's contact")
-    local = _distinct(problem, sorted(fits, key=lambda fit: fit.rss))
-    baseline = local[0]
-    baseline_start = origin.get(id(baseline), "the scan")
-    if len(replay.channels) > 1:
-        problem.reweight(baseline)
-        baseline = problem.fit(model, model.internal_values(baseline.q), BASELINE_EVALUATIONS,
-                               label="baseline: refit with the channel sd from its residual")
-        local = sorted([baseline] + [problem.result(model, fit.q) for fit in local[1:]],
-                       key=lambda fit: fit.rss)
-        baseline = local[0]
-        say("baseline: channel sd from its residual: " + ", ".join(
-            f"{c} {problem.noise[c]:.3g}" for c in replay.channels))
+    return stick_phases
+
+
+def _fit_stribeck_restarts(problem: SimulationProblem, model: Model, fits: list[SimFit],
+                           origin: dict[int, str], say: ProgressFn) -> None:
+    """A declared Stribeck curve fitted again from the shapes of ``_STRIBECK_RESTARTS`` at
+    the best fit's contact, added to ``fits`` and ``origin``."""
+    restarts = _stribeck_restarts(model, min(fits, key=lambda fit: fit.rss))
+    for index, start in enumerate(restarts):
+        # (the first is fitted in full: from the baseline's basin it is far at first)
+        race = _race(fits) if index else None
+        fit = problem.fit(model, start, BASELINE_EVALUATIONS, race,
+                          label=f"baseline: Stribeck restart {index + 1} of "
+                                f"{len(restarts)}")
+        if fit is not None:
+            fits.append(fit)
+            origin[id(fit)] = "a Stribeck restart"
+    say(f"baseline: the Stribeck curve fitted again from {len(restarts)} shapes at the "
+        "best fit's contact")
+
+
+def _reweighted(problem: SimulationProblem, model: Model, local: Sequence[SimFit],
+                say: ProgressFn) -> tuple[SimFit, list[SimFit]]:
+    """The best baseline refitted with the channel sd from its residual
+    (``SimulationProblem.reweight``), the other local optima evaluated again with them:
+    (the best, all of them best first)."""
+    problem.reweight(local[0])
+    baseline = problem.fit(model, model.internal_values(local[0].q), BASELINE_EVALUATIONS,
+                           label="baseline: refit with the channel sd from its residual")
+    local = sorted([baseline] + [problem.result(model, fit.q) for fit in local[1:]],
+                   key=lambda fit: fit.rss)
+    say("baseline: channel sd from its residual: " + ", ".join(
+        f"{c} {problem.noise[c]:.3g}" for c in problem.train.channels))
+    return local[0], local
+
+
+def _check_timestep(problem: SimulationProblem, model: Model, scales: Scales,
+                    baseline: SimFit, local: Sequence[SimFit], origin: Mapping[int, str],
+                    refine: bool, say: ProgressFn) -> None:
+    """Set the simulator's error floor (``problem.floor``) from the baseline replayed at half
+    the timestep; with ``refine``, ``_Unresolved`` (from ``local``'s values) when that
+    changes the prediction by more than ``TIMESTEP_TOLERANCE``."""
+    replay = problem.train
     change = _halved_change(problem, baseline)
     problem.floor = float(np.sum((change * _stacked(problem, problem.weights)) ** 2))
     # Judged in each channel's sd as the fit takes it (at least its residual's rms): a misfit
@@ -706,19 +837,35 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
                           [origin.get(id(f), "the scan") for f in local])
     say(f"baseline: {problem.primary} relerr {baseline.train.relerr_pct:.3g} %; simulator "
         f"error floor {math.sqrt(problem.floor / len(baseline.residual)):.3g} (weighted rms)")
-    current = baseline
-    remaining = [e for e in SIMULATION_EFFECTS if e not in declared and e not in skipped]
-    dropped: dict[str, str] = {}
-    candidates: dict[str, SimCandidate] = {}
-    rounds: list[list[SimCandidate]] = []
-    selected: list[str] = []
-    while remaining:
-        index = len(rounds) + 1
-        say(f"round {index}: screening {len(remaining)} candidate(s): {', '.join(remaining)}")
+
+
+# ------------------------------------------------------------------------------ selection
+
+class _SimulationRounds:
+    """The simulation path's rounds for ``driver.select``: each candidate screened
+    linearized, the promising ones fitted, the leaders converged; a choice that was not
+    converged is refitted; the backward step drops an earlier effect that the same test no
+    longer justifies (``_drop_if_unneeded``)."""
+
+    round_action = "screening"
+
+    def __init__(self, problem: SimulationProblem, scales: Scales, local: Sequence[SimFit],
+                 declared: Sequence[str], min_improvement: float, bic_threshold: float,
+                 say: ProgressFn):
+        self.problem, self.scales, self.say = problem, scales, say
+        self.local = list(local)  # the baseline's local optima, best first
+        self.declared = tuple(declared)
+        self.min_improvement, self.bic_threshold = min_improvement, bic_threshold
+        self.dropped: dict[str, str] = {}  # effect -> why (backward step)
+        self._converged: set[str] = set()  # the last round's leaders, fitted to convergence
+
+    def evaluate_round(self, current: SimFit, remaining: Sequence[str],
+                       index: int) -> list[SimCandidate]:
+        problem, min_improvement = self.problem, self.min_improvement
         # Round 1 screens at every local optimum of the baseline: an effect missing from the
         # model can pull the best baseline into another basin than the one it belongs to.
-        screens = _screen(problem, current, local if index == 1 else [current], remaining,
-                          scales)
+        screens = _screen(problem, current, self.local if index == 1 else [current],
+                          remaining, self.scales)
         ranked = sorted(remaining, key=lambda e: screens[e][1])
         # (a linearized drop far below the improvement asked is not fitted in full, except
         # for the effects far from linear in their values)
@@ -730,98 +877,91 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
         for effect in ranked:
             start, screen_dbic, seconds, at, screen_drop = screens[effect]
             if effect in fitted:
-                c = _candidate(problem, current, at, effect, scales, index, min_improvement,
-                               bic_threshold, start, screen_dbic, seconds)
+                c = _candidate(problem, current, at, effect, self.scales, index,
+                               min_improvement, self.bic_threshold, start, screen_dbic, seconds)
             else:
-                why = (f"linearized dBIC {screen_dbic:.1f} not below 0" if screen_dbic >= 0
-                       else f"linearized weighted RMSE drop {100 * screen_drop:.2f} %, under "
-                            f"{LINEARIZED_DROP_FRACTION:g} of the {100 * min_improvement:g} % "
-                            "asked" if effect not in promising
-                       else f"linearized dBIC {screen_dbic:.1f}: not among the "
-                            f"{SCREENED_FITS} best")
-                c = SimCandidate(effect=effect, fit=current, delta_bic=0.0, train_drop=0.0,
-                                 validation_log_ratio=None, tone_delta_bic=None,
-                                 tone_frequency_Hz=None, round=index, justified=False,
-                                 reason=f"screened out ({why})", seconds=seconds,
-                                 screen_delta_bic=screen_dbic, fitted=False)
-            candidates[effect] = c
+                c = _screened_out(current, effect, index, effect in promising, screen_dbic,
+                                  screen_drop, seconds, min_improvement)
             evaluated.append(c)
-            say(f"  {c.effect:<24s} screen {screen_dbic:8.1f}  " + (
+            self.say(f"  {c.effect:<24s} screen {screen_dbic:8.1f}  " + (
                 f"dBIC {c.delta_bic:8.1f}  {problem.primary} relerr "
                 f"{c.fit.train.relerr_pct:.4g} % ({100 * c.train_drop:+.1f} %)  "
                 if c.fitted else "") +
                 f"[{c.seconds:.1f} s]  {'justified' if c.justified else 'no: ' + c.reason}")
-        # The leading candidates' fits (a few evaluations each) are converged before the
-        # choice: a strongly nonlinear effect (a Stribeck peak's stick-slip) may still be far
-        # from its optimum where a flexible imitation (a ripple) already looks better.
-        leaders = sorted((c for c in evaluated if c.justified), key=lambda c: c.delta_bic)
-        for c in leaders[:CONVERGED_LEADERS]:
-            begun = time.monotonic() - c.seconds
-            refit = problem.fit(c.fit.model, c.fit.model.internal_values(c.fit.q),
-                                BASELINE_EVALUATIONS, label=f"round {index}: {c.effect} "
+        self._converge_leaders(current, evaluated, index)
+        return evaluated
+
+    def _converge_leaders(self, current: SimFit, evaluated: list[SimCandidate],
+                          index: int) -> None:
+        """The leading candidates' fits (a few evaluations each) converged before the choice,
+        in place in ``evaluated``: a strongly nonlinear effect (a Stribeck peak's stick-slip)
+        may still be far from its optimum where a flexible imitation (a ripple) already looks
+        better."""
+        problem = self.problem
+        leaders = sorted((c for c in evaluated if c.justified),
+                         key=lambda c: c.delta_bic)[:CONVERGED_LEADERS]
+        self._converged = {c.effect for c in leaders}
+        for leader in leaders:
+            begun = time.monotonic() - leader.seconds
+            refit = problem.fit(leader.fit.model, leader.fit.model.internal_values(leader.fit.q),
+                                BASELINE_EVALUATIONS, label=f"round {index}: {leader.effect} "
                                                             "converged")
-            if refit.rss < c.fit.rss:
-                c = _judge(problem, current, refit, c.effect, index, min_improvement,
-                           bic_threshold, c.screen_delta_bic, begun)
-                evaluated[evaluated.index(candidates[c.effect])] = c
-                candidates[c.effect] = c
-                say(f"  {c.effect:<24s} converged: dBIC {c.delta_bic:8.1f}  "
-                    f"{problem.primary} relerr {c.fit.train.relerr_pct:.4g} %")
-        rounds.append(evaluated)
-        justified = [c for c in evaluated if c.justified]
-        if not justified:
-            break
-        best = min(justified, key=lambda c: c.delta_bic)
-        selected.append(best.effect)
-        remaining.remove(best.effect)
-        current = best.fit
-        if best.effect not in {c.effect for c in leaders[:CONVERGED_LEADERS]}:
-            # the next round's candidates, a few evaluations each, must not be credited
-            # with the rest of this fit's descent
-            refit = problem.fit(best.fit.model, best.fit.model.internal_values(best.fit.q),
-                                BASELINE_EVALUATIONS)
-            if refit.rss < best.fit.rss:
-                current = refit
-                candidates[best.effect] = replace(best, fit=refit)
-        say(f"round {index}: selected {best.effect} ({problem.primary} relerr "
-            f"{current.train.relerr_pct:.4g} % after refitting)")
-        # Backward step: an effect chosen earlier as a stand-in for this one (an offset for a
-        # modulation's mean) is dropped when the model without it is as good by the same test.
-        for earlier in [e for e in selected[:-1] if e not in declared]:
-            current = _drop_if_unneeded(problem, current, earlier, selected, dropped,
-                                        f"round {index}", bic_threshold, say, scales)
-    if selected and selected[-1] not in declared:
-        # ... and the last choice too, once nothing more is chosen: a fit that found its way
-        # out of a poor baseline's basin through an effect may no longer need it (measured: a
-        # staged noise-free position-only Dahl record selected an offset of 1.6e-9 N, its law
-        # exact; the baseline had stopped 0.7 % off)
-        current = _drop_if_unneeded(problem, current, selected[-1], selected, dropped,
-                                    "after the last round", bic_threshold, say, scales)
-    say("selected: " + (", ".join(selected) if selected else "nothing"))
-    errors = problem.standard_errors(current)
-    say("final: " + ", ".join(f"{n} {current.values[n]:.6g}" +
-                              (f" +- {e:.2g}" if e is not None else "")
-                              for n, e in errors.items()))
-    peaks = _residual_peaks(problem, current)
-    closed_loop = None
-    if hasattr(replay, "scene"):
-        closed_loop = {label: _closed_loop_errors(problem, fit)
-                       for label, fit in (("baseline", baseline), ("final", current))}
-    return SimIdentification(
-        law=law, declared=declared, train=replay, validation=problem.validation,
-        primary=problem.primary, baseline=baseline, final=current, candidates=candidates,
-        rounds=rounds, selected=selected, skipped=skipped, dropped=dropped,
-        numerical_floor=problem.floor,
-        residual_peaks_Hz=peaks,
-        settings={"method": "simulation", "substeps": replay.substeps,
-                  "steps_per_sample": replay.steps_per_sample,
-                  "timestep_s": replay.timestep_s, "min_improvement": min_improvement,
-                  "bic_threshold": bic_threshold, "fit_mass": fit_mass,
-                  "noise_sd": dict(problem.noise), "stick_phases": stick_phases,
-                  "baseline_start": baseline_start,
-                  "support_still": bool(getattr(replay, "support_still", False))},
-        simulations=problem.simulations, seconds=time.monotonic() - started,
-        standard_errors=errors, closed_loop=closed_loop)
+            if refit.rss < leader.fit.rss:
+                c = _judge(problem, current, refit, leader.effect, index, self.min_improvement,
+                           self.bic_threshold, leader.screen_delta_bic, begun)
+                evaluated[evaluated.index(leader)] = c
+                self.say(f"  {c.effect:<24s} converged: dBIC {c.delta_bic:8.1f}  "
+                         f"{problem.primary} relerr {c.fit.train.relerr_pct:.4g} %")
+
+    def accept(self, best: SimCandidate, current: SimFit, index: int) -> SimCandidate:
+        if best.effect in self._converged:
+            return best
+        # the next round's candidates, a few evaluations each, must not be credited with the
+        # rest of this fit's descent
+        refit = self.problem.fit(best.fit.model, best.fit.model.internal_values(best.fit.q),
+                                 BASELINE_EVALUATIONS)
+        return replace(best, fit=refit) if refit.rss < best.fit.rss else best
+
+    def selected_note(self, accepted: SimCandidate) -> str:
+        return (f" ({self.problem.primary} relerr {accepted.fit.train.relerr_pct:.4g} % after "
+                "refitting)")
+
+    def backward_step(self, current: SimFit, selected: list[str], index: int,
+                      final: bool) -> SimFit:
+        if not final:
+            # An effect chosen earlier as a stand-in for this one (an offset for a
+            # modulation's mean) is dropped when the model without it is as good by the same
+            # test.
+            for earlier in [e for e in selected[:-1] if e not in self.declared]:
+                current = _drop_if_unneeded(self.problem, current, earlier, selected,
+                                            self.dropped, f"round {index}", self.bic_threshold,
+                                            self.say, self.scales)
+        elif selected and selected[-1] not in self.declared:
+            # ... and the last choice too, once nothing more is chosen: a fit that found its
+            # way out of a poor baseline's basin through an effect may no longer need it
+            # (measured: a staged noise-free position-only Dahl record selected an offset of
+            # 1.6e-9 N, its law exact; the baseline had stopped 0.7 % off)
+            current = _drop_if_unneeded(self.problem, current, selected[-1], selected,
+                                        self.dropped, "after the last round",
+                                        self.bic_threshold, self.say, self.scales)
+        return current
+
+
+def _screened_out(current: SimFit, effect: str, index: int, promising: bool,
+                  screen_dbic: float, screen_drop: float, seconds: float,
+                  min_improvement: float) -> SimCandidate:
+    """A candidate the screen did not fit in full (its ``fit`` is the round's model)."""
+    why = (f"linearized dBIC {screen_dbic:.1f} not below 0" if screen_dbic >= 0
+           else f"linearized weighted RMSE drop {100 * screen_drop:.2f} %, under "
+                f"{LINEARIZED_DROP_FRACTION:g} of the {100 * min_improvement:g} % "
+                "asked" if not promising
+           else f"linearized dBIC {screen_dbic:.1f}: not among the "
+                f"{SCREENED_FITS} best")
+    return SimCandidate(effect=effect, fit=current, delta_bic=0.0, train_drop=0.0,
+                        validation_log_ratio=None, tone_delta_bic=None,
+                        tone_frequency_Hz=None, round=index, justified=False,
+                        reason=f"screened out ({why})", seconds=seconds,
+                        screen_delta_bic=screen_dbic, fitted=False)
 
 
 def _drop_if_unneeded(problem: SimulationProblem, current: SimFit, effect: str,
@@ -917,7 +1057,7 @@ def _start(problem: SimulationProblem, law: str, fit_mass: bool,
     dt = float(np.median(np.diff(replay.time_s)))
     scales = Scales(force_N=level, velocity_m_per_s=replay.velocity_scale_m_per_s,
                     normal_force_N=normal, dt_s=dt,
-                    travel_m=float(np.ptp(replay.measured.get("position_m", [0.0]))) or 1e-3,
+                    travel_m=_travel_m(replay),
                     sliding_speeds_m_per_s=replay.sliding_speeds_m_per_s)
     model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law),
                         problem.state, problem.scene)
@@ -929,7 +1069,7 @@ def _start(problem: SimulationProblem, law: str, fit_mass: bool,
         order = np.argsort(rss)
         return [trials[i] for i in order[:count]]
 
-    deflections = _DEFLECTION_SCAN_M if law != "coulomb" else [None]
+    deflections = deflection_scan_m(scales.travel_m) if law != "coulomb" else [None]
     stage = best([(lv, x, {}) for lv in levels for x in deflections], BASELINE_STARTS)
     shapes = []
     if law == "dupont":
@@ -1001,7 +1141,8 @@ def _segmented_starts(problem: SimulationProblem, model: Model, say: ProgressFn
     segmented.noise, segmented.weights = dict(problem.noise), dict(problem.weights)
     try:
         _, levels = replay.start_levels(_LEVEL_SCAN)
-        deflections = _DEFLECTION_SCAN_M[::2] if problem.law != "coulomb" else [None]
+        deflections = deflection_scan_m(_travel_m(replay))[::2] \
+            if problem.law != "coulomb" else [None]
         shapes = [{}]
         if problem.law == "dupont":
             shapes = [{"breakaway_ratio": b} for b in _BREAKAWAY_SCAN]
@@ -1340,7 +1481,7 @@ def _stribeck_contact_start(problem: SimulationProblem, model: Model,
     speed = np.abs(base.predicted["relative_velocity_m_per_s"])
     level = now["friction_coefficient"] * problem.train.rig.normal_force_N
     trials = []
-    for deflection in _DEFLECTION_SCAN_M[::2]:
+    for deflection in deflection_scan_m(_travel_m(problem.train))[::2]:
         contact = {"contact_stiffness_N_per_m": level / deflection}
         if "bristle_damping_N_s_per_m" in now and problem.law == "lugre":
             contact["bristle_damping_N_s_per_m"] = lugre_default_bristle_damping(

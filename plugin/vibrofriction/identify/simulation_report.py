@@ -40,6 +40,8 @@ def parameters(result: SimIdentification, fit: SimFit) -> dict[str, float | None
         out.update({"drive_backlash_m": rig.drive_backlash_m,
                     "drive_backlash_centre_m": centre})
     out.update({n: fit.values[n] for n in fit.model.scene})
+    if "gms_spread" in fit.values:  # the coordinate the elements' lists were fitted in
+        out["gms_spread"] = fit.values["gms_spread"]
     return {k: _finite(v) for k, v in out.items()}
 
 
@@ -281,7 +283,9 @@ def report_markdown(result: SimIdentification) -> str:
                                          else "")
                 if name in r.final.at_bound:
                     cell += "; at its bound"
-            lines.append(f"| `{name}`{informed.unit_note(name)} | {value:.9g} | {cell} | "
+            shown = " ".join(f"{x:.6g}" for x in value) if isinstance(value, (list, tuple)) else \
+                f"{value:.9g}"  # (a list: the gms elements', a map's)
+            lines.append(f"| `{name}`{informed.unit_note(name)} | {shown} | {cell} | "
                          f"{informed.flag(name)} |")
     lines += ["", "Standard errors: Gauss-Newton, s^2 (J^T J)^-1 at the optimum with the "
               "residual variance scaled by the sample count over the effective one; they "

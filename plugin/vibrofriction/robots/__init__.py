@@ -4,7 +4,11 @@
   render;
 * ``robot_arm``: a real arm (dm_control's Kinova Jaco) in a cell with a feeder and a plate;
 * ``averaged``: the averaged element's tables (the planar law averaged over the vibration);
-* ``feeder_map``: the feeder element's map, made from the exact feeder reference.
+* ``feeder_map``: the feeder element's map, made from the exact feeder reference;
+* ``shaker``: :func:`vibrate`, which makes a body of any ``MjSpec`` vibrate along an axis.
 
-(Nothing is imported here: ``from vibrofriction.robots import scenes``.)
+(Only ``vibrate`` is imported here; the rest: ``from vibrofriction.robots import scenes``.)
 """
+from .shaker import VibratedBody, vibrate
+
+__all__ = ["VibratedBody", "vibrate"]

@@ -1,0 +1,106 @@
+"""Forward selection of effects, one driver for both identification paths.
+
+Each round the back end evaluates every remaining candidate effect against the current model
+(the inverse path fits them all; the simulation path screens them linearized, fits the
+promising ones and converges the leaders); the driver picks the justified candidate with the
+lowest dBIC, the back end accepts it (the simulation path refits it to convergence where the
+round had not) and takes its backward step (the simulation path drops an earlier effect the
+same test no longer justifies; the inverse path has none). Rounds end when no candidate is
+justified or none remains; a last backward step follows (the simulation path's on its last
+choice). What "justified" means, and the fits, stay in the back ends: ``selection``
+(``Problem``) and ``simulation`` (``SimulationProblem``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Generic, Protocol, Sequence, TypeVar
+
+F = TypeVar("F")  # a fitted model
+C = TypeVar("C", bound="Judged")  # a judged candidate
+
+
+class Judged(Protocol):
+    """A candidate effect as a round has evaluated it (``selection.Candidate``,
+    ``simulation.SimCandidate``)."""
+
+    @property
+    def effect(self) -> str: ...
+
+    @property
+    def justified(self) -> bool: ...
+
+    @property
+    def delta_bic(self) -> float: ...
+
+    @property
+    def fit(self): ...  # the current model plus the effect (or the current model, unfitted)
+
+
+class BackEnd(Protocol[C, F]):
+    """What a path does in each step of the forward selection."""
+
+    # what a round does to its candidates, in the round's progress line ("fitting",
+    # "screening")
+    round_action: str
+
+    def evaluate_round(self, current: F, remaining: Sequence[str],
+                       index: int) -> list[C]:
+        """Every candidate of ``remaining`` judged against ``current`` in round ``index``
+        (each reported in a progress line)."""
+
+    def accept(self, best: C, current: F, index: int) -> C:
+        """``best`` as it joins the model: its ``fit`` is the model the selection goes on
+        with."""
+
+    def selected_note(self, accepted: C) -> str:
+        """What the round's "selected" progress line adds after the effect's name."""
+
+    def backward_step(self, current: F, selected: list[str], index: int,
+                      final: bool) -> F:
+        """The model after dropping what the test no longer justifies, removed from
+        ``selected``: the earlier choices after round ``index`` (``final`` False), the last
+        choice once no round selects anything more (``final`` True)."""
+
+
+@dataclass(frozen=True, eq=False)
+class Selection(Generic[C, F]):
+    final: F
+    candidates: dict[str, C]  # the last evaluation of each effect
+    rounds: list[list[C]]
+    selected: list[str]
+
+
+def select(back_end: BackEnd[C, F], start: F, effects: Sequence[str],
+           say: Callable[[str], None]) -> Selection[C, F]:
+    """Forward selection of ``effects`` from the model ``start``."""
+    current = start
+    remaining = list(effects)
+    candidates: dict[str, C] = {}
+    rounds: list[list[C]] = []
+    selected: list[str] = []
+    while remaining:
+        index = len(rounds) + 1
+        say(f"round {index}: {back_end.round_action} {len(remaining)} candidate(s): "
+            f"{', '.join(remaining)}")
+        evaluated = back_end.evaluate_round(current, remaining, index)
+        for c in evaluated:
+            candidates[c.effect] = c
+        rounds.append(evaluated)
+        justified = [c for c in evaluated if c.justified]
+        if not justified:
+            break
+        best = min(justified, key=lambda c: c.delta_bic)
+        selected.append(best.effect)
+        remaining.remove(best.effect)
+        accepted = back_end.accept(best, current, index)
+        candidates[best.effect] = accepted
+        current = accepted.fit
+        say(f"round {index}: selected {best.effect}{back_end.selected_note(accepted)}")
+        # (an effect dropped is not a candidate again: no cycles)
+        current = back_end.backward_step(current, selected, index, final=False)
+    current = back_end.backward_step(current, selected, len(rounds), final=True)
+    say("selected: " + (", ".join(selected) if selected else "nothing"))
+    return Selection(final=current, candidates=candidates, rounds=rounds, selected=selected)
+
+
+__all__ = ["select", "Selection", "BackEnd", "Judged"]
