@@ -56,7 +56,7 @@ MAD_TO_SD = 1.4826
 # What shapes the presliding transient (the values a record that does not resolve presliding
 # cannot inform); the bristle damping also has its own time scale.
 PRESLIDING_VALUES = ("contact_stiffness_N_per_m", "alpha", "breakaway_ratio",
-                     "bristle_damping_N_s_per_m")
+                     "bristle_damping_N_s_per_m", "gms_spread")
 # a sine/cosine pair's coordinates: the amplitude they set is what is reported
 _SINE_PAIRS = {"ripple_cos": "position_ripple", "ripple_sin": "position_ripple",
                "modulation_cos": "normal_force_modulation",

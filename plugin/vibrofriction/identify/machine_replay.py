@@ -37,7 +37,7 @@ from ..rigs import rig as rig_module
 from ..data.datasets import Dataset, smoothed_derivative
 from ..errors import InputError
 from ..params import FrictionParameters, RigParameters
-from .start import starts_in_motion
+from .start import start_velocity, starts_in_motion
 from .replay import (SampleGrid, contact_at_rest, contact_sliding, grid_steps, noise_sd,
                      speed_quantiles, substeps_of_record, uniform_times)
 from ..vocabulary import FRICTION_TERMS
@@ -530,8 +530,8 @@ def prepare_machine_replay(dataset: Dataset, *, substeps: int | None = None) -> 
     v_scale = math.sqrt(float(np.mean(velocity ** 2))) or 1e-3
     # the start's velocity: the measured velocity's first samples where there is one
     measured_velocity = velocity if "velocity_m_per_s" in columns else None
-    velocity0 = float(velocity[0]) if measured_velocity is not None else \
-        float(smoothed_derivative(position[:32], t[:32])[0])
+    velocity0 = start_velocity(t, position, measured_velocity)[0] \
+        if measured_velocity is not None else float(smoothed_derivative(position[:32], t[:32])[0])
     return MachineReplay(
         name=dataset.name, scene=scene, time_s=t, substeps=substeps,
         timestep_s=sample_dt / substeps, control=_control(scene, inputs, len(t), substeps),
@@ -542,7 +542,10 @@ def prepare_machine_replay(dataset: Dataset, *, substeps: int | None = None) -> 
         initial_friction_N=float(force[0]), level_N=level, velocity_scale_m_per_s=v_scale,
         inputs=inputs, timestep_from_record=from_record,
         normal_force_known=scene.constant_normal_N is not None,
-        starts_in_motion=starts_in_motion(t, position, measured_velocity))
+        # (a load from a sensor or contacts is not known before the run: such a scene's
+        # contact starts at rest, not at a steady state computed for 1 N)
+        starts_in_motion=(scene.constant_normal_N is not None or not scene.normal_load_given)
+        and starts_in_motion(t, position, measured_velocity))
 
 
 __all__ = ["BUNDLED", "closed_loop_errors", "MachineReplay", "MachineScene", "machine", "prepare_machine_replay"]

@@ -140,8 +140,10 @@ def prepare(dataset: Dataset, *, substeps: int | None = None,
     if not state_law:
         substeps = 0
     grid = _law_grid(t, relative_velocity, relative_position, normal, substeps)
-    in_motion = starts_in_motion(
-        t, position, velocity if "velocity_m_per_s" in columns else None)
+    # sliding on the support at the start (a vibrating support's relative velocity changes
+    # sign every half period: no steady state to start from, the contact starts at rest)
+    in_motion = not vibrating and starts_in_motion(
+        t, relative_position, relative_velocity if "velocity_m_per_s" in columns else None)
     return Record(
         name=dataset.name, time_s=t, target_N=target_N, target=target,
         body_velocity_m_per_s=velocity, relative_velocity_m_per_s=relative_velocity,

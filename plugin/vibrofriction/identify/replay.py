@@ -177,20 +177,33 @@ def deflection_at_rest(friction: FrictionParameters, force_N: float,
 
 def contact_at_rest(model: mujoco.MjModel, data: mujoco.MjData, friction: FrictionParameters,
                     force_N: float, normal_force_N: float) -> None:
-    """``deflection_at_rest`` in ``data.act`` (law gms: every element at the deflection the
-    elements' total stiffness holds the force with, none slipped); nothing for Coulomb."""
+    """``deflection_at_rest`` in ``data.act`` (law gms: the elements from one common
+    displacement, each up to its break-away, ``_gms_at_rest``); nothing for Coulomb."""
     if friction.law == "coulomb" or not model.na:
         return
     actuator = model.actuator("friction")
     if friction.law == "gms":
-        total = float(sum(friction.gms_stiffness_N_per_m))
-        bound = _ELASTIC_FRACTION * friction.friction_coefficient * \
-            max(1.0, friction.static_ratio) * normal_force_N
-        count = len(friction.gms_stiffness_N_per_m)
-        data.act[actuator.actadr[0]:actuator.actadr[0] + count] = \
-            min(max(force_N, -bound), bound) / total
+        data.act[actuator.actadr[0]:actuator.actadr[0] + len(friction.gms_stiffness_N_per_m)] = \
+            _gms_at_rest(friction, force_N, normal_force_N)
         return
     data.act[actuator.actadr] = deflection_at_rest(friction, force_N, normal_force_N)
+
+
+def _gms_at_rest(friction: FrictionParameters, force_N: float,
+                 normal_force_N: float) -> np.ndarray:
+    """The gms elements' deflections holding ``force_N`` (within the elastic range) from a
+    common displacement z: each element k_i z up to its break-away w_i level, where it stays
+    (sum min(k_i z, w_i level) = F, piecewise linear in z)."""
+    stiffness = np.asarray(friction.gms_stiffness_N_per_m, dtype=float)
+    level = friction.friction_coefficient * max(1.0, friction.static_ratio) * normal_force_N
+    limits = np.asarray(friction.gms_element_weights, dtype=float) * level / stiffness
+    force = min(abs(force_N), _ELASTIC_FRACTION * level)
+    held = lambda z: float(np.sum(stiffness * np.minimum(z, limits)))  # noqa: E731
+    lo, hi = 0.0, float(limits.max())
+    for _ in range(100):  # bisection: held(z) is monotone
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if held(mid) < force else (lo, mid)
+    return math.copysign(1.0, force_N) * np.minimum(0.5 * (lo + hi), limits)
 
 
 def contact_sliding(model: mujoco.MjModel, data: mujoco.MjData, friction: FrictionParameters,
@@ -751,9 +764,10 @@ def prepare_rig_replay(dataset: Dataset, *, substeps: int | None = None) -> RigR
         initial_drive_end_m=drive_end0, initial_friction_N=friction0, vibrating=vibrating,
         timestep_from_record=from_record, sliding_steps_per_sample=sliding,
         support_still=still, normal_force_from_record=normal_from_record,
-        initial_play_side=play_side, starts_in_motion=starts_in_motion(
-            t, position, columns["velocity_m_per_s"] if "velocity_m_per_s" in columns
-            else None))
+        initial_play_side=play_side, starts_in_motion=not vibrating and starts_in_motion(
+            t, position - support_position,
+            np.asarray(columns["velocity_m_per_s"]) - support_velocity
+            if "velocity_m_per_s" in columns else None))
 
 
 # Stick phases (``stick_phase_steps``): between two slips (speed relative to the support above

@@ -633,10 +633,19 @@ def verdict_sentence(d: Diagnostics) -> str:
     """report.md's one-sentence verdict."""
     source = "its white noise" if d.noise_floor_from == "white noise" else \
         "1e-4 of the channel's range: no noise resolved"
+    bound = (f"adequate up to {d.threshold:.3g}x: a material excess, the floor being exact "
+             "for white noise only" if d.threshold <= MATERIAL_RATIO else
+             f"noise alone stays below {d.threshold:.3g}x over {d.noise_samples:.0f} "
+             "effective samples")
     head = (f"the residual ({d.channel}) is {_times(d.ratio)} the record's noise floor "
-            f"({_number(d.noise_floor)} {d.unit}, {source}; noise alone stays below "
-            f"{d.threshold:.3g}x over {d.noise_samples:.0f} effective samples)")
+            f"({_number(d.noise_floor)} {d.unit}, {source}; {bound})")
     if d.model_adequate:
+        lead = d.leading
+        if lead is not None and lead.significant:
+            # within the margin, but a structure the regressors find is still said
+            return (f"**Model adequate:** {head}; {100 * lead.explained_share:.3g} % of the "
+                    f"residual's variance follows {lead.label} ({_p_text(lead.p_value)}), "
+                    "small against the noise.")
         return f"**Model adequate:** {head}."
     lead = d.leading
     if lead is None:

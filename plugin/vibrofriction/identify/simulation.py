@@ -691,6 +691,13 @@ def _baseline(problem: SimulationProblem, law: str, declared: Sequence[str], fit
     if "stribeck" in model.effects and not refining:
         _fit_stribeck_restarts(problem, model, fits, origin, say)
     local = _distinct(problem, sorted(fits, key=lambda fit: fit.rss))
+    if refining and local[0] is not fits[0]:
+        # a carried optimum, only re-evaluated, is now below the refitted best: fit it too
+        # (the baseline is always a fit at this step)
+        refit = problem.fit(model, model.internal_values(local[0].q), BASELINE_EVALUATIONS,
+                            label="baseline: a carried optimum fitted again")
+        origin[id(refit)] = origin.get(id(local[0]), "the scan")
+        local = _distinct(problem, sorted([refit, *local], key=lambda fit: fit.rss))
     baseline = local[0]
     baseline_start = origin.get(id(baseline), "the scan")
     if len(replay.channels) > 1:

@@ -40,7 +40,8 @@ def start_velocity(time_s: np.ndarray, position_m: np.ndarray,
         return float(intercept), white_noise_sd(v) * math.sqrt(2.0 * (2 * k - 1) / (k * (k + 1)))
     x = np.asarray(position_m, dtype=float)
     n = min(2 * DERIVATIVE_HALF_WINDOW_SAMPLES + 1, len(x))
-    v0 = float(smoothed_derivative(x[:n], time_s[:n])[0])
+    offsets = np.asarray(time_s[:n], dtype=float) - float(time_s[0])
+    v0 = float(np.polyfit(offsets, x[:n], 1)[0])  # a straight line: its slope's sd is below
     dt = float(np.median(np.diff(time_s[:n])))
     # least-squares slope over n samples: sd sqrt(12 / (n (n^2 - 1))) sigma_x / dt
     return v0, white_noise_sd(x) * math.sqrt(12.0 / (n * (n * n - 1))) / dt
