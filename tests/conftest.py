@@ -82,3 +82,34 @@ def skip_unless_builtin(name: str):
     missing = unavailable_variants().get(name)
     return pytest.mark.skipif(missing is not None,
                               reason=f"MuJoCo {mujoco.__version__} lacks {missing}")
+
+
+def carriage_scene_xml(friction, *, mass_kg: float, timestep_s: float, measured: str,
+                       actdim: int = 1, normal_N: float = 1.0) -> str:
+    """A user's machine scene: a carriage on a guide with this friction (a FrictionParameters,
+    written through the vocabulary), pushed by a measured force, ``measured``
+    ("position_m" or "velocity_m_per_s") its output; the record's mapping in <custom>."""
+    from vibrofriction.vocabulary import config_values, element_keys
+    config = "".join(f'<config key="{k}" value="{v}"/>' for k, v in
+                     config_values(friction, element_keys("friction")).items())
+    sensor = {"position_m": "jointpos", "velocity_m_per_s": "jointvel"}[measured]
+    return f"""
+<mujoco model="carriage">
+  <option timestep="{timestep_s!r}" integrator="Euler"/>
+  <extension><plugin plugin="vibrofriction.friction"><instance name="guide_friction">
+    <config key="law" value="{friction.law}"/><config key="normal" value="{normal_N}"/>{config}
+  </instance></plugin></extension>
+  <custom>
+    <text name="vibrofriction:joint" data="slide"/>
+    <text name="vibrofriction:body" data="carriage"/>
+    <text name="vibrofriction:input:drive_force_N" data="push"/>
+    <text name="vibrofriction:output:{measured}" data="measured"/>
+  </custom>
+  <worldbody><body name="carriage"><joint name="slide" type="slide" axis="1 0 0"/>
+    <inertial pos="0 0 0" mass="{mass_kg}" diaginertia="1 1 1"/></body></worldbody>
+  <actuator>
+    <motor name="push" joint="slide"/>
+    <plugin name="friction" joint="slide" instance="guide_friction" actdim="{actdim}"/>
+  </actuator>
+  <sensor><{sensor} name="measured" joint="slide"/></sensor>
+</mujoco>"""

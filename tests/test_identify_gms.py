@@ -4,13 +4,14 @@ and in a replayed scene."""
 from __future__ import annotations
 
 import json
-from dataclasses import replace
+from functools import partial
 
 import mujoco
 import numpy as np
 import pytest
 
 import vibrofriction
+from conftest import carriage_scene_xml
 from vibrofriction import cli
 from vibrofriction.data.datasets import Dataset, DatasetMetadata, write_dataset
 from vibrofriction.identify import identify
@@ -78,30 +79,15 @@ def test_cli_takes_law_gms_and_reports_the_elements(tmp_path, capsys):
     assert parameters["gms_spread"] > 1.0
 
 
-SCENE = """<mujoco model="carriage"><option timestep="2.5e-4" integrator="Euler"/>
-<extension><plugin plugin="vibrofriction.friction"><instance name="guide">
-<config key="law" value="{law}"/><config key="normal" value="1"/><config key="mu" value="38"/>
-{config}</instance></plugin></extension>
-<custom><text name="vibrofriction:joint" data="slide"/>
-<text name="vibrofriction:body" data="carriage"/>
-<text name="vibrofriction:input:drive_force_N" data="push"/>
-<text name="vibrofriction:output:position_m" data="x"/></custom>
-<worldbody><body name="carriage"><joint name="slide" type="slide" axis="1 0 0"/>
-<inertial pos="0 0 0" mass="5" diaginertia="1 1 1"/></body></worldbody>
-<actuator><motor name="push" joint="slide"/>
-<plugin name="friction" joint="slide" instance="guide" actdim="{actdim}"/></actuator>
-<sensor><jointpos name="x" joint="slide"/></sensor></mujoco>"""
-
-
 def test_a_scene_with_one_deflection_replays_law_gms(tmp_path):
     """A user's scene declares one deflection (Coulomb, actdim 1): the replay of law gms gives
     its friction actuator one per element, and at the true values follows a record the gms
     scene made."""
     vibrofriction.load()
     truth = _truth()
-    lists = (f'<config key="gms_stiffness" value="{" ".join(map(repr, truth.gms_stiffness_N_per_m))}"/>'
-             f'<config key="gms_weight" value="{" ".join(map(repr, truth.gms_weights))}"/>')
-    model = mujoco.MjModel.from_xml_string(SCENE.format(law="gms", config=lists, actdim=3))
+    scene_xml = partial(carriage_scene_xml, mass_kg=5.0, timestep_s=2.5e-4,
+                        measured="position_m")
+    model = mujoco.MjModel.from_xml_string(scene_xml(truth, actdim=3))
     data = mujoco.MjData(model)
     t = np.arange(1500) * 1e-3
     push = 45 * np.sin(2 * np.pi * 1.0 * t) + 8 * np.sin(2 * np.pi * 3.7 * t)
@@ -111,7 +97,7 @@ def test_a_scene_with_one_deflection_replays_law_gms(tmp_path):
         data.ctrl[0] = push[i]
         mujoco.mj_step(model, data, 4)
     scene = tmp_path / "carriage.xml"
-    scene.write_text(SCENE.format(law="coulomb", config="", actdim=1))
+    scene.write_text(scene_xml(FrictionParameters(law="coulomb", friction_coefficient=LEVEL_N)))
     record = Dataset(name="pushed", columns={"time_s": t, "position_m": x, "drive_force_N": push},
                      metadata=DatasetMetadata(model=str(scene), mass_kg=5.0,
                                               simulation_timestep_s=2.5e-4))

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import vibrofriction
+from conftest import carriage_scene_xml
 from vibrofriction.data.datasets import Dataset, DatasetMetadata
 from vibrofriction.identify import identify
 from vibrofriction.identify.model import Model, Scales
@@ -25,7 +26,6 @@ from vibrofriction.identify.simulation import identify_by_simulation
 from vibrofriction.identify.start import starts_in_motion
 from vibrofriction.laws import run_law, steady_deflection_m
 from vibrofriction.params import FrictionParameters, default_friction
-from vibrofriction.vocabulary import config_values, element_keys
 
 NORMAL_N = 1.0  # the friction coefficient is the level in N
 LEVEL_N = 38.0
@@ -117,31 +117,9 @@ def test_inverse_prediction_of_a_record_cut_mid_motion(law):
 
 
 def _scene_xml(friction: FrictionParameters) -> str:
-    """A carriage (24.7 kg) on a guide with this friction, pushed by a measured force; its
-    velocity measured (the record's mapping onto the scene in <custom>)."""
-    keys = element_keys("friction")
-    config = "".join(f'<config key="{k}" value="{v}"/>' for k, v in
-                     config_values(friction, keys).items())
-    return f"""
-<mujoco model="carriage">
-  <option timestep="{1 / RATE_HZ / 4!r}" integrator="Euler"/>
-  <extension><plugin plugin="vibrofriction.friction"><instance name="guide_friction">
-    <config key="law" value="{friction.law}"/><config key="normal" value="{NORMAL_N}"/>{config}
-  </instance></plugin></extension>
-  <custom>
-    <text name="vibrofriction:joint" data="slide"/>
-    <text name="vibrofriction:body" data="carriage"/>
-    <text name="vibrofriction:input:drive_force_N" data="push"/>
-    <text name="vibrofriction:output:velocity_m_per_s" data="v"/>
-  </custom>
-  <worldbody><body name="carriage"><joint name="slide" type="slide" axis="1 0 0"/>
-    <inertial pos="0 0 0" mass="{MASS_KG}" diaginertia="1 1 1"/></body></worldbody>
-  <actuator>
-    <motor name="push" joint="slide"/>
-    <plugin name="friction" joint="slide" instance="guide_friction" actdim="1"/>
-  </actuator>
-  <sensor><jointvel name="v" joint="slide"/></sensor>
-</mujoco>"""
+    """The 24.7 kg carriage with this friction, its velocity measured, at 4 steps a sample."""
+    return carriage_scene_xml(friction, mass_kg=MASS_KG, timestep_s=1 / RATE_HZ / 4,
+                              measured="velocity_m_per_s", normal_N=NORMAL_N)
 
 
 def _push(scene: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
