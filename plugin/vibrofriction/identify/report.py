@@ -91,10 +91,11 @@ def report_markdown(result: Identification, rig_replay: dict | None = None) -> s
     lines += _header_lines(result)
     diagnosis = residual_diagnostics.for_identification(result)
     lines += ["", residual_diagnostics.verdict_sentence(diagnosis)]
-    lines += _error_lines(result)
+    informed = inverse_diagnostics(result)  # (each record's prediction: computed once)
+    lines += _error_lines(result, informed)
     lines += _selected_lines(result)
     lines += _rounds_lines(result)
-    lines += _parameter_lines(result)
+    lines += _parameter_lines(result, informed)
     lines += _residual_lines(result)
     lines += residual_diagnostics.markdown_lines([diagnosis])
     lines += _mujoco_lines(result, rig_replay)
@@ -129,7 +130,7 @@ def _header_lines(r: Identification) -> list[str]:
     return lines
 
 
-def _error_lines(r: Identification) -> list[str]:
+def _error_lines(r: Identification, informed) -> list[str]:
     """The error table, baseline and final, training and held out."""
     record = r.train
     lines: list[str] = []
@@ -142,7 +143,7 @@ def _error_lines(r: Identification) -> list[str]:
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
     lines += ["", "Cells: RMSE (relative error 100 ||y - y_hat|| / ||y||) of the measured "
               f"{record.target} force.", ""]
-    lines += inverse_diagnostics(r).outlier_lines({f"{record.target}_force_N": "N"})
+    lines += informed.outlier_lines({f"{record.target}_force_N": "N"})
     return lines
 
 
@@ -202,7 +203,7 @@ def _rounds_lines(r: Identification) -> list[str]:
     return lines
 
 
-def _parameter_lines(r: Identification) -> list[str]:
+def _parameter_lines(r: Identification, informed) -> list[str]:
     """The parameters of the baseline and final models."""
     lines: list[str] = []
     lines += ["## Final parameters", "",
@@ -210,7 +211,6 @@ def _parameter_lines(r: Identification) -> list[str]:
               "inflated by n/n_eff for the residual's autocorrelation "
               f"(n = {r.final.n}, n_eff = {r.final.n_eff:.0f}).", "",
               "| parameter | baseline | final | informed (final) |", "|---|---|---|---|"]
-    informed = inverse_diagnostics(r)
     names = list(dict.fromkeys([*r.baseline.values, *r.final.values]))
     for name in names:
         before = _pm(r.baseline, name) if name in r.baseline.values else ""
