@@ -178,10 +178,6 @@ def test_a_bad_play_in_mjcf_is_named(law, value, words):
     assert "'contact_play'" in str(info.value) and words in str(info.value)
 
 
-@pytest.mark.xfail(reason="known regression of session 33 (issue 39 item 1): since a record "
-                   "that starts in motion starts at its steady state, this record's play is "
-                   "not traced (contact_play fits to 0, velocity_map is selected); see the "
-                   "session note", strict=False)
 def test_the_inverse_path_traces_a_hidden_play():
     """A LuGre record with a 1 mm play in its contact (made by the law itself along a
     prescribed motion, sensor noise added): LuGre alone leaves the force's plateau after each

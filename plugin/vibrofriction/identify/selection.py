@@ -51,6 +51,7 @@ CANDIDATE_EVALUATIONS_PER_PARAMETER = 20
 _DEFLECTION_SCAN = np.logspace(-6, 0, 25)
 _STRIBECK_SCAN = np.logspace(-2, 0.5, 11)  # v_s / rms(v_r)
 _PLAY_SCAN = np.logspace(-3, math.log10(0.5), 13)  # play width / the record's travel
+_PLAY_STIFFNESS_SCAN = (1.0, 3.0, 10.0, 30.0, 100.0)  # contact stiffness / the fit without play
 _PLAY_LAWS = TERMS_BY_NAME["contact_play_m"].laws  # the laws with bristles
 
 ProgressFn = Callable[[str], None]
@@ -396,15 +397,22 @@ def _effect_start(problem: Problem, current: FitResult, effect: str,
         return best
     if effect == "contact_play":
         # The force is not linear in the play's width (it moves where the contact closes):
-        # scanned over widths from 1/1000 of the travel to half of it.
+        # scanned over widths from 1/1000 of the travel to half of it. A play and a soft
+        # bristle trade off (both delay the force after a reversal), so a fit without the
+        # play may have taken a softer contact: the contact stiffness is scanned with it.
         travel = params["contact_play_m"].upper
+        stiffness = base.get("contact_stiffness_N_per_m")
+        multipliers = _PLAY_STIFFNESS_SCAN if stiffness else (1.0,)
         best, best_rss = {}, math.inf
         for fraction in _PLAY_SCAN:
-            trial = {"contact_play_m": fraction * travel}
-            r = problem.residual(model, model.internal({**base, **trial}))
-            rss = float(r @ r)
-            if rss < best_rss:
-                best, best_rss = trial, rss
+            for multiplier in multipliers:
+                trial = {"contact_play_m": fraction * travel}
+                if stiffness:
+                    trial["contact_stiffness_N_per_m"] = multiplier * stiffness
+                r = problem.residual(model, model.internal({**base, **trial}))
+                rss = float(r @ r)
+                if rss < best_rss:
+                    best, best_rss = trial, rss
         return best
     if effect == "position_ripple":
         wavelength = _ripple_scan(problem, current)
