@@ -11,6 +11,7 @@ import pytest
 
 from vibrofriction.data.datasets import Dataset, DatasetMetadata
 from vibrofriction.identify import identify
+from vibrofriction.identify.identifiability import inverse_diagnostics
 from vibrofriction.laws.run import run_law, steady_deflection_m
 from vibrofriction.oracle import reference
 from vibrofriction.params import FrictionParameters, ParameterError, RigParameters
@@ -207,3 +208,6 @@ def test_the_inverse_path_traces_a_hidden_play():
     assert result.selected[:1] == ["contact_play"]
     assert result.final.values["contact_play_m"] == pytest.approx(1e-3, rel=0.02)
     assert result.final.validation[0].relerr_pct < 0.5 * result.baseline.validation[0].relerr_pct
+    # without the play the law took a softer contact: flagged as biased in the baseline
+    moved = {m.name for m in inverse_diagnostics(result).moved}
+    assert "contact_stiffness_N_per_m" in moved

@@ -21,7 +21,7 @@ from vibrofriction.identify import identify
 from vibrofriction.identify.identifiability import (BOUND_TOLERANCE, OUTLIER_ROBUST_SD,
                                                     OUTLIER_SHARE, RELATIVE_ERROR_LIMIT,
                                                     bound_sides, identifiability,
-                                                    residual_outliers)
+                                                    moved_parameters, residual_outliers)
 from vibrofriction.identify.model import Model, Scales
 from vibrofriction.identify.replay import Replayer
 from vibrofriction.identify.replays import prepare_replay
@@ -240,3 +240,17 @@ def test_simulation_path_flags_a_held_out_glitch_and_informs_a_pushed_block(tmp_
     md = (out / "report.md").read_text()
     assert "held-out `pushed_held`, position_m at t = 0.7 s" in md
     assert "| informed |" in md
+
+
+def test_a_law_parameter_moved_by_an_added_effect_is_flagged_biased() -> None:
+    """A law parameter is flagged when the selected effects move it by more than its final
+    standard error; within it, or with nothing selected, it is not."""
+    baseline = {"friction_coefficient": 0.30, "contact_stiffness_N_per_m": 1e4}
+    final = {"friction_coefficient": 0.301, "contact_stiffness_N_per_m": 2e5,
+             "contact_play_m": 1e-3}
+    errors = {"friction_coefficient": 0.002, "contact_stiffness_N_per_m": 1e3}
+    moved = moved_parameters("lugre", baseline, final, errors, ["contact_play"])
+    assert [m.name for m in moved] == ["contact_stiffness_N_per_m"]
+    assert moved[0].standard_errors == pytest.approx(190.0)
+    assert moved[0].as_dict()["effects"] == ["contact_play"]
+    assert moved_parameters("lugre", baseline, final, errors, []) == []

@@ -96,6 +96,27 @@ def test_steady_sliding_mean_drive_force_is_coulomb_level(law):
     assert ratio == pytest.approx(1.0, rel=5e-3)
 
 
+@pytest.mark.parametrize("law", SMOOTH_LAWS)
+def test_a_level_factor_scales_the_sliding_level(law):
+    """The out-of-vocabulary hook: a constant factor on the level scales steady sliding by it;
+    a factor rising in time (heating) makes the level rise with it."""
+    result = simulate_reference(_paper_rig(), default_friction(law), 0.06, sample_dt_s=1e-5,
+                                t_start_s=0.04, level_factor=lambda t, x, v: 1.1)
+    assert result.summary(0.04).mean_drive_force_N / BOUND_N == pytest.approx(1.1, rel=5e-3)
+    heating = simulate_reference(_paper_rig(), default_friction(law), 0.1, sample_dt_s=1e-5,
+                                 level_factor=lambda t, x, v: 1.0 + 2.0 * t)
+    force = heating.drive_force_N
+    early, late = force[(heating.time_s > 0.04) & (heating.time_s < 0.05)].mean(), \
+        force[heating.time_s > 0.09].mean()
+    assert late / early == pytest.approx((1 + 2 * 0.095) / (1 + 2 * 0.045), rel=1e-2)
+
+
+def test_a_level_factor_is_refused_for_the_hybrid_laws():
+    with pytest.raises(ParameterError, match="level_factor"):
+        simulate_reference(_paper_rig(), default_friction("coulomb"), 0.01,
+                           level_factor=lambda t, x, v: 1.0)
+
+
 @pytest.mark.parametrize("alpha", [0.0, 0.5, 1.0, 2.0])
 def test_dahl_virgin_loading_under_slow_drive(alpha):
     """Quasi-static presliding: F_F(x) follows the closed-form virgin curve up to 0.9 F_c."""

@@ -26,7 +26,7 @@ import math
 import sys
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
-from typing import Mapping
+from typing import Callable, Mapping
 
 import numpy as np
 
@@ -106,6 +106,8 @@ class Scenario:
     noise: SensorNoise = SensorNoise()
     disturbance: PeriodicDisturbance | None = None
     seed: int = 0
+    # an effect no parameter names: the reference's level_factor(t_s, x_rel_m, v_rel_m_per_s)
+    level_factor: Callable[[float, float, float], float] | None = None
 
 
 def with_effect(effect: str | None, scenario: Scenario | None = None, *,
@@ -159,7 +161,8 @@ def generate(scenario: Scenario, name: str = "synthetic", description: str = "")
     # A drive-force record's lag is the dynamometer's: the friction itself is not lagged.
     lag_s = friction.sensor_lag_s
     simulated = replace(friction, sensor_lag_s=0.0) if scenario.measured == "drive" else friction
-    ref = simulate_reference(rig, simulated, scenario.duration_s, sample_dt_s=dt / oversample)
+    ref = simulate_reference(rig, simulated, scenario.duration_s, sample_dt_s=dt / oversample,
+                             level_factor=scenario.level_factor)
     # The dynamometer is the drive spring: it reads k_d (v_d t - x) (through any backlash),
     # through its lag; a damper acting in parallel (drive_damping) pushes the slider without
     # passing through it.

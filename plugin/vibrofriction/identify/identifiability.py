@@ -18,6 +18,12 @@ Identifiability of each fitted value of the final model. It is *not informed* wh
   is interpolated between samples, not on anything measured. The bristle damping acts on a
   time scale sigma1 / sigma0 of its own, which the sample interval must resolve as well.
 
+Law parameters biased by a missing effect: a law parameter of the baseline (the law alone, or
+with the declared effects) whose value moves by more than ``MOVED_STANDARD_ERRORS`` of the
+final fit's standard error once the selection adds effects. The baseline's value then carried
+the effect it lacked (a softer contact standing in for a play, a level standing in for a speed
+curve): the final value is the estimate, the baseline's is biased.
+
 Residual outliers of the final fit (measured - predicted, as ``series.py`` writes it), on every
 channel the path predicts, of the training record and of each held-out record: a sample that
 stands out of its record's residual -- more than ``SHARE_MIN_ROBUST_SD`` robust sd (1.4826
@@ -29,12 +35,12 @@ model misses). Each is reported with the error its record would have without it.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 import numpy as np
 
-from .model import Model
+from .model import LAW_PARAMETERS, Model
 from .series import inverse_series, simulation_series
 
 RELATIVE_ERROR_LIMIT = 0.5
@@ -48,6 +54,7 @@ OUTLIER_ROBUST_SD = 8.0
 # Every outlier also stands this far out of the bulk, so the largest sample of a short record
 # of white noise (100 samples: about 10 % of the sum of squares) is not taken for a glitch.
 SHARE_MIN_ROBUST_SD = 5.0
+MOVED_STANDARD_ERRORS = 1.0  # a law parameter's move, baseline -> final, that flags it
 ISOLATION = 0.5  # a lone glitch's neighbours deviate by less than this fraction of it
 MAX_LISTED = 5  # outliers listed per record and channel (the largest shares)
 # sd of a normal distribution over its median absolute deviation
@@ -145,6 +152,45 @@ class Outlier:
 
 
 @dataclass(frozen=True)
+class Moved:
+    """A law parameter that moved, from the baseline to the final fit, by more than its
+    standard error once the selected effects were added."""
+
+    name: str
+    baseline: float
+    final: float
+    standard_error: float
+    effects: tuple[str, ...]  # the effects the selection added
+
+    @property
+    def standard_errors(self) -> float:
+        return abs(self.final - self.baseline) / self.standard_error
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"baseline": _finite(self.baseline), "final": _finite(self.final),
+                "standard_error": _finite(self.standard_error),
+                "moved_standard_errors": _finite(self.standard_errors),
+                "effects": list(self.effects)}
+
+
+def moved_parameters(law: str, baseline: Mapping[str, float], final: Mapping[str, float],
+                     errors: Mapping[str, float | None], selected) -> list[Moved]:
+    """The law parameters the selected effects moved by more than their standard error."""
+    if not selected:
+        return []
+    out = []
+    for name in LAW_PARAMETERS.get(law, ()):
+        se = errors.get(name)
+        if name not in baseline or name not in final or se is None or not se > 0:
+            continue
+        moved = Moved(name, float(baseline[name]), float(final[name]), float(se),
+                      tuple(selected))
+        if moved.standard_errors > MOVED_STANDARD_ERRORS:
+            out.append(moved)
+    return out
+
+
+@dataclass(frozen=True)
 class Diagnostics:
     """What report.json's ``final`` block and report.md say about the final fit."""
 
@@ -153,10 +199,12 @@ class Diagnostics:
     presliding: Presliding | None
     outliers: list[Outlier]
     level_in_N: bool  # no normal force given: friction_coefficient is the friction level in N
+    moved: list[Moved] = field(default_factory=list)  # biased in the baseline
 
     def as_json(self) -> dict[str, Any]:
         """The keys added to report.json's ``final`` block (docs/interfaces.md)."""
         return {"identifiability": {k: v.as_dict() for k, v in self.identifiability.items()},
+                "biased_in_baseline": {m.name: m.as_dict() for m in self.moved},
                 "presliding": self.presliding.as_dict() if self.presliding else None,
                 "residual_outliers": [o.as_dict() for o in self.outliers],
                 "friction_coefficient_unit": "N" if self.level_in_N else "1"}
@@ -192,6 +240,12 @@ class Diagnostics:
         if self.level_in_N:
             lines += ["", "No normal force was given (F_N = 1 N): `friction_coefficient` is "
                       "the friction level in N, not a coefficient."]
+        if self.moved:
+            moves = ", ".join(f"`{m.name}` {m.baseline:.4g} -> {m.final:.4g} "
+                              f"({m.standard_errors:.1f} standard errors)" for m in self.moved)
+            lines += ["", f"**Biased without {', '.join(self.moved[0].effects)}:** {moves}. "
+                      "The law alone took up what the added effects explain; quote the final "
+                      "values (report.json: `final.biased_in_baseline`)."]
         p = self.presliding
         if p is not None and not (p.resolved and p.damping_resolved is not False):
             lost = [n for n, e in self.identifiability.items()
@@ -377,8 +431,10 @@ def inverse_diagnostics(result) -> Diagnostics:
     informed = identifiability(fit.values, fit.uncertainties, bound_sides(fit.model, fit.q),
                                scales)
     outliers = series_outliers(inverse_series(result))
+    moved = moved_parameters(result.law, result.baseline.values, fit.values, fit.uncertainties,
+                             [e for e in result.selected])
     return Diagnostics(law=result.law, identifiability=informed, presliding=scales,
-                       outliers=outliers, level_in_N=not record.normal_force_known)
+                       outliers=outliers, level_in_N=not record.normal_force_known, moved=moved)
 
 
 def simulation_diagnostics(result) -> Diagnostics:
@@ -396,8 +452,10 @@ def simulation_diagnostics(result) -> Diagnostics:
     outliers = series_outliers(simulation_series(result))
     level_in_N = not replay.normal_force_known and \
         not getattr(replay, "normal_force_from_record", False)
+    moved = moved_parameters(result.law, result.baseline.values, fit.values,
+                             result.standard_errors, list(result.selected))
     return Diagnostics(law=result.law, identifiability=informed, presliding=scales,
-                       outliers=outliers, level_in_N=level_in_N)
+                       outliers=outliers, level_in_N=level_in_N, moved=moved)
 
 
 def _finite(value: float | None) -> float | None:
@@ -407,7 +465,8 @@ def _finite(value: float | None) -> float | None:
     return value if math.isfinite(value) else None
 
 
-__all__ = ["Diagnostics", "Informed", "Outlier", "Presliding", "identifiability",
+__all__ = ["Diagnostics", "Informed", "Moved", "Outlier", "Presliding", "identifiability",
+           "moved_parameters",
            "presliding", "residual_outliers", "series_outliers", "bound_sides",
            "inverse_diagnostics", "simulation_diagnostics", "RELATIVE_ERROR_LIMIT",
            "BOUND_TOLERANCE", "OUTLIER_SHARE", "OUTLIER_ROBUST_SD"]

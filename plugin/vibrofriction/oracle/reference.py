@@ -101,8 +101,14 @@ def simulate_reference(rig: RigParameters, friction: FrictionParameters, duratio
                        sample_dt_s: float = 1e-6, rtol: float = 1e-8,
                        atol: float | Sequence[float] | None = None,
                        t_start_s: float = 0.0,
-                       vibration_from_s: float | None = None) -> ReferenceResult:
+                       vibration_from_s: float | None = None,
+                       level_factor: Callable[[float, float, float], float] | None = None
+                       ) -> ReferenceResult:
     """Integrate the rig from rest (x = x' = z = 0, drive spring unloaded at t = 0).
+
+    ``level_factor(t_s, x_rel_m, v_rel_m_per_s)``: a factor on the Coulomb level for an effect
+    no parameter names (heating over time, a speed curve of another shape), state laws only:
+    the out-of-vocabulary records the tracer is tested on.
 
     ``vibration_from_s`` (default: the rig's) > 0: the support stands still until then and
     vibrates from then on,
@@ -130,9 +136,12 @@ def simulate_reference(rig: RigParameters, friction: FrictionParameters, duratio
                                   or friction.velocity_map_knots_m_per_s):
         raise ParameterError("the gms reference covers constant levels: static_ratio 1, no "
                              "normal_force_modulation, position_ripple or level maps")
+    if level_factor is not None and friction.law in ("coulomb", "gms"):
+        raise ParameterError("level_factor is supported for the state laws (dahl, dupont, "
+                             f"lugre), not for the hybrid {friction.law} reference")
     n_intervals = max(1, round(duration_s / sample_dt_s))
     t_grid = np.linspace(0.0, duration_s, n_intervals + 1)
-    contact = _Contact(rig, friction)
+    contact = _Contact(rig, friction, level_factor)
     drive = _Rig(rig, vibration_from_s)
     tolerances = _tolerances(rig, contact, rtol, atol)
     max_step_s = _max_step_s(rig, friction)
@@ -211,9 +220,11 @@ def _tolerances(rig: RigParameters, contact: "_Contact", rtol: float,
 class _Contact:
     """Friction level with all effects, and the laws as functions (t, x_rel, v_r, z) -> (z', F)."""
 
-    def __init__(self, rig: RigParameters, friction: FrictionParameters):
+    def __init__(self, rig: RigParameters, friction: FrictionParameters,
+                 level_factor: Callable[[float, float, float], float] | None = None):
         p = friction
         self.bound_N = p.friction_coefficient * rig.normal_force_N
+        self.level_factor = level_factor
         self.asymmetry = p.asymmetry
         self.ripple = p.position_ripple
         self.ripple_k_per_m = 2 * math.pi / p.position_ripple_wavelength_m
@@ -251,6 +262,13 @@ class _Contact:
             level *= max(0.0, 1.0 + self.position_map(x_rel))
         return level
 
+    def state_level(self, t: float, x_rel: float, v: float) -> float:
+        """``coulomb_level`` of a state law (direction: the sign of v) times ``level_factor``."""
+        level = self.coulomb_level(t, x_rel, v)
+        if self.level_factor is not None:
+            level *= max(0.0, float(self.level_factor(t, x_rel, v)))
+        return level
+
     def stribeck(self, fc: float, v: float) -> float:
         """g(v) = F_c + (F_s - F_c) exp(-(v/v_s)^2), times the velocity map's 1 + s(|v|)."""
         if self.velocity_map:
@@ -262,7 +280,7 @@ class _Contact:
     # State laws; with no friction bound (mu F_N = 0) the deflection stays at zero.
 
     def dahl(self, t: float, x_rel: float, v: float, z: float) -> tuple[float, float]:
-        fc = self.coulomb_level(t, x_rel, v)
+        fc = self.state_level(t, x_rel, v)
         zdot = 0.0
         if fc > 0 and v != 0:
             w = 1 - self.kt * z * math.copysign(1.0, v) / self.stribeck(fc, v)
@@ -270,7 +288,7 @@ class _Contact:
         return zdot, self.kt * z + self.s2 * v + self.offset_N
 
     def dupont(self, t: float, x_rel: float, v: float, z: float) -> tuple[float, float]:
-        fc = self.coulomb_level(t, x_rel, v)
+        fc = self.state_level(t, x_rel, v)
         zdot = v if fc > 0 else 0.0  # a = 0 (elastic) unless sgn(v) = sgn(z), see below
         if fc > 0 and v * z > 0:
             z_ss = self.stribeck(fc, v) / self.kt  # |z_ss(v)|
@@ -280,7 +298,7 @@ class _Contact:
         return zdot, self.kt * z + self.s1 * zdot + self.s2 * v + self.offset_N
 
     def lugre(self, t: float, x_rel: float, v: float, z: float) -> tuple[float, float]:
-        fc = self.coulomb_level(t, x_rel, v)
+        fc = self.state_level(t, x_rel, v)
         zdot = v - abs(v) * self.kt * z / self.stribeck(fc, v) if fc > 0 else 0.0
         return zdot, self.kt * z + self.s1 * zdot + self.s2 * v + self.offset_N
 
