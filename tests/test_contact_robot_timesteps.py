@@ -362,3 +362,164 @@ def test_the_config_helpers_write_support_geom():
     for helper in (table.contact_config, feeder.contact_config):
         assert "support_geom" not in helper("track")
         assert helper("track", support_geom=("surface", "ramp"))["support_geom"] == "surface ramp"
+
+
+# ---- bristle damping the step does not resolve (planar) and the 1-D element ------------------
+
+def _line_scene(law, timestep, extra="", amplitude=0.0, frequency=10.0):
+    """vibrofriction.friction on a 1 kg part's slide joint inside a plate driven along x."""
+    actdim = 3 if law == "gms" else 1
+    keys = f'<config key="law" value="{law}"/>' + (
+        '<config key="gms_stiffness" value="4e7 2e7 2e7"/>' if law == "gms" else "")
+    return f"""
+<mujoco><option timestep="{timestep}" integrator="implicitfast"/>
+  <extension>
+    <plugin plugin="vibrofriction.motion"><instance name="shaker">
+      <config key="frequency" value="{frequency}"/>
+      <config key="velocity_amplitude" value="{amplitude}"/></instance></plugin>
+    <plugin plugin="vibrofriction.friction"><instance name="part_friction">{keys}
+      <config key="mu" value="{MU}"/><config key="normal" value="{GRAVITY}"/>{extra}
+    </instance></plugin>
+  </extension>
+  <worldbody><body name="plate"><joint name="plate_x" type="slide" axis="1 0 0" armature="1e5"/>
+    <geom type="box" size="1 1 .01" mass="10" contype="0" conaffinity="0"/>
+    <body name="part"><joint name="part_x" type="slide" axis="1 0 0"/>
+      <geom type="box" size=".05 .05 .05" mass="1" contype="0" conaffinity="0"/></body></body>
+  </worldbody>
+  <actuator><plugin name="shaker" joint="plate_x" instance="shaker"/>
+    <plugin joint="part_x" instance="part_friction" actdim="{actdim}"/>
+    <motor name="push" joint="part_x"/></actuator>
+</mujoco>"""
+
+
+def _hold_slide_ride(xml_of, timestep):
+    """Held at mu m g / 2 (slip over 1 s), pushed at 1.5 mu m g (acceleration over (F - mu m
+    g)/m), and on the plate vibrating at 10 Hz, 10 mm/s pushed at 0.3 mu m g (slip over 1 s)."""
+    model = mujoco.MjModel.from_xml_string(xml_of(0.0))
+    data = mujoco.MjData(model)
+    push, x = model.actuator("push").id, model.joint("part_x").qposadr[0]
+    data.ctrl[push] = 0.5 * MU * GRAVITY
+    mujoco.mj_step(model, data, nstep=round(0.1 / timestep))
+    start = data.qpos[x]
+    mujoco.mj_step(model, data, nstep=round(1.0 / timestep))
+    slip = data.qpos[x] - start
+    data.ctrl[push] = 1.5 * MU * GRAVITY
+    mujoco.mj_step(model, data, nstep=round(0.1 / timestep))
+    v0 = data.qvel[x]
+    mujoco.mj_step(model, data, nstep=round(0.4 / timestep))
+    ratio = (data.qvel[x] - v0) / 0.4 / (0.5 * MU * GRAVITY)
+    vibrating = mujoco.MjModel.from_xml_string(xml_of(0.01))
+    data = mujoco.MjData(vibrating)
+    data.ctrl[push] = 0.3 * MU * GRAVITY
+    mujoco.mj_step(vibrating, data, nstep=round(0.2 / timestep))
+    start = data.qpos[x]
+    mujoco.mj_step(vibrating, data, nstep=round(1.0 / timestep))
+    return slip, ratio, data.qpos[x] - start
+
+
+@pytest.mark.parametrize("timestep", [1e-3, 2e-3])
+@pytest.mark.parametrize("law", ["coulomb", *STATE_LAWS, "gms"])
+def test_the_line_element_holds_and_slides_at_robot_timesteps(law, timestep):
+    """vibrofriction.friction (a robot's joint friction, a slide joint) at its default
+    stiffness: before, the explicit step slid the held part 492-494 um over the second at 1 ms
+    and 994-1006 um at 2 ms; now each step that does not resolve the contact is implicit."""
+    vibrofriction.load()
+    slip, ratio, ride = _hold_slide_ride(
+        lambda amplitude: _line_scene(law, timestep, amplitude=amplitude), timestep)
+    assert abs(slip) < 1e-9
+    assert ratio == pytest.approx(1.0, rel=1e-6)
+    assert abs(ride) < 1e-6  # (Dahl, LuGre: their hysteresis walks 0.1 um)
+
+
+@pytest.mark.parametrize("extra, expected_ratio", [
+    ('<config key="asymmetry" value="0.2"/>', (1.5 - 1.2) / 0.5),  # level x 1.2 forward
+    ('<config key="contact_play" value="1e-5"/>', 1.0),
+])
+@pytest.mark.parametrize("law", STATE_LAWS)
+def test_the_line_elements_effects_at_robot_timesteps(law, extra, expected_ratio):
+    vibrofriction.load()
+    slip, ratio, _ = _hold_slide_ride(
+        lambda amplitude: _line_scene(law, 2e-3, extra, amplitude=amplitude), 2e-3)
+    assert abs(slip) < 1e-9
+    assert ratio == pytest.approx(expected_ratio, rel=1e-6)
+
+
+def _trace(xml):
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    push, x = model.actuator("push").id, model.joint("part_x").qposadr[0]
+    every = round(0.05 / model.opt.timestep)
+    out = []
+    for fraction, seconds in ((0.5, 1.1), (1.5, 0.5)):
+        data.ctrl[push] = fraction * MU * GRAVITY
+        for k in range(round(seconds / model.opt.timestep)):
+            mujoco.mj_step(model, data)
+            if (k + 1) % every == 0:
+                out.append(data.qpos[x])
+    return np.array(out)
+
+
+DAMPED = [(1e5, 1e4), (1e5, 1e5)]  # (k_t N/m, sigma1 N s/m): sigma1 dt / m = 10 ... 200
+
+
+@pytest.mark.parametrize("stiffness, sigma1", DAMPED)
+@pytest.mark.parametrize("law", STATE_LAWS)
+@pytest.mark.parametrize("element", ["planar", "line"])
+def test_a_bristle_damping_the_step_does_not_resolve_follows_the_resolved_motion(
+        element, law, stiffness, sigma1):
+    """k_t dt lambda is 0.1-0.2 (resolved) but sigma1 dt / m is 10-200: the step is taken
+    implicitly (planar: it took the trapezoidal damping before, whose velocity flips sign every
+    step there). Held at mu m g / 2, then pushed at 1.5 mu m g: the part's position every 50 ms
+    within 1 % of its travel from the run at 10 us (first order: measured 0.07 % and 0.14 % at 1
+    and 2 ms; a heavily damped LuGre breaks away slowly, so the travel is 31 um to 91 mm)."""
+    vibrofriction.load()
+    extra = f'<config key="stiffness" value="{stiffness}"/><config key="sigma1" value="{sigma1}"/>'
+
+    def scene(timestep):
+        if element == "line":
+            return _line_scene(law, timestep, extra)
+        return _planar_scene(law, timestep).replace('<config key="mu"', extra + '<config key="mu"')
+    reference = _trace(scene(1e-5))
+    for timestep in (1e-3, 2e-3):
+        trace = _trace(scene(timestep))
+        assert np.abs(trace - reference).max() < 0.01 * np.abs(reference).max(), timestep
+
+
+# ---- a vibration the timestep cannot resolve is refused ----------------------------------------
+
+@pytest.mark.parametrize("scene, fix", [
+    (lambda: _scene("dahl", 1e-3, amplitude=0.02, frequency=200), "vibrofriction.contact_averaged"),
+    (lambda: _scene("coulomb", 2e-3, amplitude=0.02, frequency=60), "vibrofriction.contact_averaged"),
+    (lambda: _planar_scene("lugre", 1e-3, 0.02).replace(
+        '<config key="frequency" value="10"/>', '<config key="frequency" value="200"/>'),
+     "vibrofriction.averaged"),
+])
+def test_a_support_vibrating_too_fast_for_the_timestep_is_refused(scene, fix):
+    """Fewer than 10 steps a period: one line naming the frequency, the timestep and the fix."""
+    vibrofriction.load()
+    with pytest.raises(ValueError, match=r"vibrates at \d+ Hz and the timestep is [0-9.e-]+ s, "
+                                         rf"[0-9.]+ steps a period: .*use {fix}.* or a timestep "
+                                         r"of at most"):
+        mujoco.MjModel.from_xml_string(scene())
+
+
+def test_a_fast_normal_modulation_is_refused_and_slow_ones_and_still_supports_are_not():
+    vibrofriction.load()
+    modulated = _scene("dahl", 1e-3, extra='<config key="normal_modulation" value="0.3"/>'
+                                           '<config key="modulation_frequency" value="150"/>')
+    with pytest.raises(ValueError, match="the normal load .normal_modulation. vibrates at 150 Hz"):
+        mujoco.MjModel.from_xml_string(modulated)
+    mujoco.MjModel.from_xml_string(_scene("dahl", 1e-3, amplitude=0.02, frequency=100))  # 10
+    mujoco.MjModel.from_xml_string(_scene("dahl", 1e-3, amplitude=0.0, frequency=1000))  # still
+
+
+def test_the_averaging_elements_are_not_refused_for_a_fast_vibration():
+    """contact_averaged and contact_feeder hold the vibration in their table or map: a shaker
+    at 1 kHz on their support at 1 ms is not theirs to refuse."""
+    vibrofriction.load()
+    base = _scene("dahl", 1e-3, amplitude=0.02, frequency=1000)
+    averaged = base.replace("vibrofriction.contact\"", "vibrofriction.contact_feeder\"").replace(
+        '<config key="law" value="dahl"/>',
+        '<config key="map_velocity" value="-0.01 0 0.01"/><config key="map_force" '
+        'value="0.2 0 -0.2"/>')
+    mujoco.MjModel.from_xml_string(averaged)

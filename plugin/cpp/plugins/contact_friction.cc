@@ -9,6 +9,7 @@
 #include "common/element_config.h"
 #include "common/plugin_util.h"
 #include "plugins/averaged_friction.h"
+#include "plugins/planar_friction.h"
 
 namespace vibrofriction {
 namespace {
@@ -37,8 +38,9 @@ constexpr char kMapVelocity[] = "map_velocity";
 constexpr char kMapForce[] = "map_force";
 // Parts on a vibratory feeder at robot timesteps: the feeder map of
 // vibrofriction.robots.feeder_map.
+constexpr char kHelixPitch[] = "helix_pitch";
 const char* const kFeederAttributes[] = {kMu, kSupport, kTorsionRadius, kAxis, kMapVelocity,
-                                         kMapForce, kSupportGeom};
+                                         kMapForce, kSupportGeom, kHelixPitch};
 
 // True when MuJoCo's body-pair mechanism never collides bodies b1 and b2: one weld group, or a
 // parent and a child weld group (not the world) while filterparent is on. An explicit <pair>
@@ -86,6 +88,15 @@ bool ContactConfig::FromModel(const mjModel* m, int instance, ContactConfig* con
   ContactConfig c;
   if (!ReadLawParameters(m, instance, kPlugin, &c.law)) return false;
   if (!c.ReadPair(m, instance, kPlugin, scope)) return false;
+  if (scope == ReadScope::kAll) {
+    std::vector<int> trees;
+    for (const int dof : c.chain_dofs) trees.push_back(m->dof_treeid[dof]);
+    if (!CheckVibrationResolved(m, kPlugin, trees, c.law, "vibrofriction.contact_averaged (the "
+                                "vibration averaged out, for robot timesteps; "
+                                "vibrofriction.contact_feeder on a feeder)")) {
+      return false;
+    }
+  }
   *config = std::move(c);
   return true;
 }
@@ -123,6 +134,16 @@ bool ContactConfig::FromModelFeeder(const mjModel* m, int instance, ContactConfi
                            "track, the one its map was made with");
   }
   if (!c.ReadAxis(m, instance, plugin)) return false;
+  // helix_pitch: a bowl feeder's spiral track about the support's z axis; the conveying
+  // direction is the helix's tangent at the contact point, pointing up the spiral.
+  if (!ReadNumber(m, instance, plugin, kHelixPitch, 0.0, &c.helix_pitch)) return false;
+  const char* axis_text = mj_getPluginConfig(m, instance, kAxis);
+  if (c.helix_pitch != 0 && axis_text && axis_text[0]) {
+    return ConfigError("%s: attributes 'axis' and 'helix_pitch' are both given; a helical track "
+                       "conveys along the helix's tangent at the part (helix_pitch, the rise per "
+                       "turn about the support's z axis), a straight one along 'axis': give one",
+                       plugin);
+  }
   for (const char* key : {kMapVelocity, kMapForce}) {
     const char* text = mj_getPluginConfig(m, instance, key);
     if (!text || !text[0]) {
@@ -339,6 +360,26 @@ void FeederMapForce(const ContactConfig& config, const LawInput& in, const doubl
   f[2] = spin ? f2[1] : 0.0;
 }
 
+void HelixTangent(const mjData* d, int support, const mjtNum point[3], double pitch,
+                  mjtNum tangent[3]) {
+  const mjtNum* rotation = d->xmat + 9 * support;
+  mjtNum offset[3], local[3];
+  mju_sub3(offset, point, d->xpos + 3 * support);
+  mju_mulMatTVec3(local, rotation, offset);  // the point in the support's frame
+  const double radius = std::hypot(local[0], local[1]);
+  if (!(radius > 1e-9)) {  // on the axis: no direction (rigid Coulomb)
+    mju_zero3(tangent);
+    return;
+  }
+  // d/dphi of (r cos phi, r sin phi, pitch phi / 2 pi), upward: sign(pitch) (r e_phi + pitch/2pi e_z)
+  const double up = pitch > 0 ? 1.0 : -1.0;
+  const double run = 2 * kPi * radius;
+  const double length = std::hypot(run, pitch);
+  const mjtNum along[3] = {up * (-local[1] / radius) * run / length,
+                           up * (local[0] / radius) * run / length, std::fabs(pitch) / length};
+  mju_mulMatVec3(tangent, rotation, along);
+}
+
 // ---- ContactFriction -----------------------------------------------------------------------------
 
 void ContactFriction::SlidingVelocity(const mjModel* m, const mjData* d, const mjtNum* state,
@@ -434,7 +475,11 @@ void ContactFriction::ImplicitForce(const mjModel* m, mjData* d, const mjtNum* s
     // the load, which MuJoCo's contact carries). A feeder's map holds its throw: the axis
     // gives only the conveying direction.
     mjtNum axis[3];
-    mju_mulMatVec3(axis, d->xmat + 9 * config_->support, config_->axis_local);
+    if (config_->helix_pitch != 0) {
+      HelixTangent(d, config_->support, state + ContactState::kPoint, config_->helix_pitch, axis);
+    } else {
+      mju_mulMatVec3(axis, d->xmat + 9 * config_->support, config_->axis_local);
+    }
     axis3[0] = mju_dot3(axis, t1);
     axis3[1] = mju_dot3(axis, t2);
     in_plane = std::hypot(axis3[0], axis3[1]);

@@ -70,6 +70,10 @@ struct ContactConfig {
   // from vibrofriction.robots.feeder_map
   bool feeder = false;
   std::vector<double> map_velocity, map_force;
+  // config `helix_pitch` (m, the rise per turn counter-clockwise about the support's z axis;
+  // 0: off): a bowl feeder's spiral track, conveying along the helix's tangent at the contact
+  // point (HelixTangent) instead of along `axis`
+  double helix_pitch = 0.0;
 
   static bool FromModel(const mjModel* m, int instance, ContactConfig* config,
                         ReadScope scope = ReadScope::kAll);
@@ -163,6 +167,12 @@ class ContactFriction {
   double moment_ = 0;
   double speed_ = 0;
 };
+
+// The upward unit tangent at `point` (world) of the helix about support's z axis through its
+// origin with rise `pitch` per counter-clockwise turn (pitch < 0: the spiral climbs clockwise):
+// sign(pitch) (2 pi r e_phi + pitch e_z), normalized, in world coordinates; zero on the axis.
+void HelixTangent(const mjData* d, int support, const mjtNum point[3], double pitch,
+                  mjtNum tangent[3]);
 
 // The feeder map's force in (along, across, spin) components, f as the element's force (the
 // body receives -f; B f is the change of velocity it takes off), from the velocity without it

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <algorithm>
+#include <limits>
 #include <utility>
 #include <vector>
 
@@ -237,6 +239,147 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
   return true;
 }
 
+namespace {
+
+// The parameters with the level's speed dependence (Stribeck curve, velocity map) frozen at
+// `speed`, as the vector elements' implicit step takes it: a level that falls with the speed,
+// taken at the end speed, would give the step several solutions.
+LawParameters LevelFrozenAt(const LawParameters& p, double speed) {
+  const double shape = VelocityShape(p, speed);
+  LawParameters q = p;
+  if (shape == 1.0) return q;
+  q.static_ratio = 1.0;
+  q.velocity_map.count = 0;
+  q.friction_coefficient *= shape;
+  q.breakaway_ratio = p.breakaway_ratio / shape;
+  return q;
+}
+
+// The root w of h(w) = w + B F(w) - v_free for a force F(w) that does not decrease with w
+// (it may jump: a play's face): regula falsi (Illinois) on the bracket between v_free and
+// v_free - B F(v_free), where h changes sign, to the last bit. Returns the force consistent with
+// the root, (v_free - w) / B within F's values on either side of it (a jump's middle: the force
+// that stops the motion there), and leaves force_of's last state at w in place.
+template <class ForceOf>
+double SolveScalarImplicit(double v_free, double B, ForceOf force_of, double* root) {
+  const double f_free = force_of(v_free);
+  if (f_free == 0.0) {
+    *root = v_free;
+    return 0.0;
+  }
+  double lo = v_free, hi = v_free - B * f_free;
+  double h_lo = B * f_free, h_hi = 0.0;
+  double f_lo = f_free, f_hi = force_of(hi);
+  h_hi = hi + B * f_hi - v_free;
+  if (lo > hi) {
+    std::swap(lo, hi);
+    std::swap(h_lo, h_hi);
+    std::swap(f_lo, f_hi);
+  }
+  // h(lo) <= 0 <= h(hi) for a non-decreasing F
+  if (h_lo >= 0 || h_hi <= 0) {
+    const bool at_lo = std::fabs(h_lo) <= std::fabs(h_hi);
+    *root = at_lo ? lo : hi;
+    force_of(*root);
+    return at_lo ? f_lo : f_hi;
+  }
+  int side = 0;
+  for (int k = 0; k < 200; ++k) {
+    double w = (lo * h_hi - hi * h_lo) / (h_hi - h_lo);
+    if (!(w > lo && w < hi)) w = 0.5 * (lo + hi);
+    if (w <= lo || w >= hi) break;  // the bracket is two neighbouring doubles
+    const double f = force_of(w);
+    const double h = w + B * f - v_free;
+    if (h == 0) {
+      *root = w;
+      return f;
+    }
+    if (h < 0) {
+      lo = w, h_lo = h, f_lo = f;
+      if (side == -1) h_hi *= 0.5;  // Illinois: the stale end's value halved
+      side = -1;
+    } else {
+      hi = w, h_hi = h, f_hi = f;
+      if (side == +1) h_lo *= 0.5;
+      side = +1;
+    }
+    if (hi - lo <= 4 * std::numeric_limits<double>::epsilon() * std::max(std::fabs(lo),
+                                                                         std::fabs(hi))) {
+      break;
+    }
+  }
+  *root = 0.5 * (lo + hi);
+  force_of(*root);
+  return std::clamp((v_free - *root) / B, std::min(f_lo, f_hi), std::max(f_lo, f_hi));
+}
+
+// The transmission's inverse weight at qpos0 (m->dof_invweight0, tendon_invweight0) times
+// gear^2: the cheap estimate that keeps the lean path lean where a step resolves the contact.
+double InverseWeight0(const mjModel* m, int actuator) {
+  const int id = m->actuator_trnid[2 * actuator];
+  const double gear = m->actuator_gear[6 * actuator];
+  switch (m->actuator_trntype[actuator]) {
+    case mjTRN_JOINT:
+    case mjTRN_JOINTINPARENT:
+      return gear * gear * m->dof_invweight0[m->jnt_dofadr[id]];
+    case mjTRN_TENDON:
+      return gear * gear * m->tendon_invweight0[id];
+    default:
+      return 0.0;
+  }
+}
+
+}  // namespace
+
+double FrictionElement::ImplicitDeflectionForce(const mjModel* m, mjData* d, int instance,
+                                                const LawInput& in,
+                                                const StepResponse& response) {
+  const LawParameters& p = config_->law;
+  const double dt = m->opt.timestep;
+  const double B = dt * response.inverse_mass;
+  const LawParameters q = LevelFrozenAt(p, in.velocity);
+  LawInput at = in;  // the deflection's update over the step, as advance takes it
+  at.time = in.time + 0.5 * dt;
+  double w = 0.0;
+  if (p.law == Law::kGms) {
+    const int count = p.gms.count;
+    const double* z = d->act + config_->act_address;
+    const mjtNum* slipping = d->plugin_state + m->plugin_stateadr[instance] + config_->slip_state;
+    auto force_of = [&](double velocity) {
+      for (int i = 0; i < count; ++i) {
+        implicit_next_[i] = z[i];
+        implicit_slipping_[i] = slipping[i];
+      }
+      LawInput step = at;
+      step.velocity = velocity;
+      step.position = in.position + 0.5 * dt * velocity;
+      AdvanceGms<1>(q, step, &velocity, implicit_next_, implicit_slipping_, dt);
+      double f = 0.0;
+      GmsElementForce<1>(q, implicit_next_, &f);
+      return f + q.viscous * velocity + q.force_offset;
+    };
+    return SolveScalarImplicit(response.velocity_free, B, force_of, &w);
+  }
+  // A deflection beyond what the level holds (the load or the level fell) is taken at the
+  // level, as the vector elements' step takes it.
+  double z = d->act[config_->act_address];
+  const double elastic = ElasticDeflection(q, z);
+  const double limit = CoulombLevel(q, in, elastic > 0 ? 1.0 : -1.0) / q.contact_stiffness;
+  if (std::fabs(elastic) > limit) z += (elastic > 0 ? limit : -limit) - elastic;
+  const double start = ElasticDeflection(q, z);
+  auto force_of = [&](double velocity) {
+    LawInput step = at;
+    step.velocity = velocity;
+    step.position = in.position + 0.5 * dt * velocity;
+    implicit_next_[0] = AdvanceDeflection(q, step, z, dt);
+    if (PlayOpen(q, implicit_next_[0], velocity)) return q.force_offset;
+    const double after = ElasticDeflection(q, implicit_next_[0]);
+    return q.contact_stiffness * after + q.bristle_damping * (after - start) / dt +
+           q.viscous * velocity + q.force_offset;
+  };
+  return SolveScalarImplicit(response.velocity_free, B, force_of, &w);
+}
+
 LawInput FrictionElement::Input(const mjModel* m, const mjData* d, int instance,
                                 double velocity) const {
   LawInput in;
@@ -248,12 +391,38 @@ LawInput FrictionElement::Input(const mjModel* m, const mjData* d, int instance,
 }
 
 void FrictionElement::Compute(const mjModel* m, mjData* d, int instance) {
+  implicit_step_ = false;
   if (!config_.Refresh(m, instance)) {
     d->actuator_force[config_->output] = 0;
     return;
   }
   const LawParameters& p = config_->law;
   const double velocity = d->actuator_velocity[config_->output];
+  if (HasDeflection(p.law)) {
+    // A step that does not resolve the contact (k_t dt B or sigma1 B >= 1, B = dt J M^-1 J')
+    // is taken implicitly. The response is computed only where the inverse weight at
+    // qpos0 says the step may be one (within a factor 10): resolved steps keep their path.
+    double stiffness = p.contact_stiffness;
+    if (p.law == Law::kGms) {
+      stiffness = 0.0;
+      for (int i = 0; i < p.gms.count; ++i) stiffness += p.gms.stiffness[i];
+    }
+    const double dt = m->opt.timestep;
+    const double damping = p.bristle_damping;  // (the viscous term: trapezoidal, right at any step)
+    const double weight = InverseWeight0(m, config_->actuator);
+    if (10 * (stiffness * dt + damping) * dt * weight >= kUnresolvedDeflection || !(weight > 0)) {
+      const StepResponse response =
+          ComputeStepResponse(m, d, config_->output, &response_workspace_);
+      const double B = dt * response.inverse_mass;
+      if (stiffness * dt * B >= kUnresolvedDeflection || damping * B >= kUnresolvedDeflection) {
+        const LawInput in = Input(m, d, instance, velocity);
+        implicit_step_ = true;
+        d->actuator_force[config_->output] = -ImplicitDeflectionForce(m, d, instance, in,
+                                                                      response);
+        return;
+      }
+    }
+  }
   if (p.law == Law::kGms) {
     const double* z = d->act + config_->act_address;
     double friction = 0.0;
@@ -324,11 +493,19 @@ void FrictionElement::Advance(const mjModel* m, mjData* d, int instance) {
     *lagged = FirstOrderLagStep(*lagged, friction, friction, dt, config_->sensor_lag);
   }
   if (!HasDeflection(config_->law.law)) return;
+  mjtNum* z = d->act + config_->act_address;
+  if (implicit_step_) {  // the deflection the step's force was computed with
+    const bool gms = config_->law.law == Law::kGms;
+    for (int i = 0; i < (gms ? config_->law.gms.count : 1); ++i) {
+      z[i] = implicit_next_[i];
+      if (gms) state[config_->slip_state + i] = implicit_slipping_[i];
+    }
+    return;
+  }
   // z update with the velocity *after* this step's integration (see header).
   LawInput in = Input(m, d, instance, TransmissionVelocity(m, d, config_->output));
   in.time = d->time - 0.5 * dt;  // mid-step: time has already advanced
   in.position += 0.5 * dt * in.velocity;
-  mjtNum* z = d->act + config_->act_address;
   if (config_->law.law == Law::kGms) {
     AdvanceGms<1>(config_->law, in, &in.velocity, z, state + config_->slip_state, dt);
     return;

@@ -8,6 +8,11 @@
 // by the closed-form (Dahl, LuGre) or unconditionally stable (Dupont) update with the *new*
 // velocity v_{n+1}: a symplectic-Euler pair that neither pumps energy into a stuck contact nor
 // diverges at dt = 1e-4 s. act_dot stays 0 because z is not integrated by MuJoCo.
+// That pair is stable only while k_t dt^2 J M^-1 J' < 4: a step that does not resolve the
+// contact (k_t dt B >= 1 or sigma1 B >= 1, B = dt J M^-1 J'; a robot's joint
+// friction at 1-2 ms) is taken implicitly instead, as the planar and contact elements' (the
+// force of the deflection at the end of the step, with the end-of-step velocity solved from
+// the one-step response; advance keeps that deflection).
 #ifndef VIBROFRICTION_FRICTION_ELEMENT_H_
 #define VIBROFRICTION_FRICTION_ELEMENT_H_
 
@@ -61,8 +66,19 @@ class FrictionElement {
   LawInput Input(const mjModel* m, const mjData* d, int instance, double velocity) const;
   double Deflection(const mjData* d) const;  // the sensor's z
 
+  // A state law's step that does not resolve the contact: the force of the deflection at the
+  // end of the step at the end-of-step velocity w solving w + B F(w) = v_free, where the
+  // deflection follows the law's exact update at w (the level frozen at the step's start
+  // speed). Writes the deflections (gms: and slip flags) after the step to implicit_next_.
+  double ImplicitDeflectionForce(const mjModel* m, mjData* d, int instance, const LawInput& in,
+                                 const StepResponse& response);
+
   CachedConfig<FrictionConfig> config_;
   StepResponseWorkspace response_workspace_;
+  // This step was taken implicitly: advance takes implicit_next_ (and, gms, the flags).
+  bool implicit_step_ = false;
+  double implicit_next_[kMaxGmsElements] = {};
+  double implicit_slipping_[kMaxGmsElements] = {};
 };
 
 }  // namespace vibrofriction

@@ -77,6 +77,25 @@ struct PlanarConfig {
                         ReadScope scope = ReadScope::kAll);
 };
 
+// The fewest steps a vibration period that the elements resolving the vibration (friction,
+// planar, contact) accept at compile time: below it the vibration is not simulated but
+// aliased (at 2 steps a period a sine is sampled at its zeros), and the averaged elements are
+// the ones for such a timestep.
+inline constexpr double kMinStepsPerPeriod = 10.0;
+
+// Refuses a vibration that the element resolves but the model's timestep cannot: a
+// vibrofriction.motion actuator with a vibration (frequency > 0, velocity_amplitude != 0) on one
+// of the kinematic trees `trees` (dof_treeid values; -1 matches every tree), or the law's
+// normal-load modulation, at fewer than kMinStepsPerPeriod steps a period. Records one line
+// naming the timestep, the frequency and the fix (`fix`: the element that averages the
+// vibration; null: none, a smaller timestep only) and returns false.
+bool CheckVibrationResolved(const mjModel* m, const char* plugin, const std::vector<int>& trees,
+                            const LawParameters& law, const char* fix);
+
+// The kinematic trees (dof_treeid) an actuator's transmission moves (-1: a site or body
+// transmission, taken as any).
+void TransmissionTrees(const mjModel* m, int actuator, std::vector<int>* trees);
+
 class PlanarFriction {
  public:
   static constexpr char kName[] = "vibrofriction.planar";

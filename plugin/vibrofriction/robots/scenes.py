@@ -57,6 +57,9 @@ SCENES = {
     "planar_rig_averaged": ROBOTS_DIR / "planar_rig_averaged.xml",
     # the drop-in element vibrofriction.contact on a free part (tests/test_contact.py)
     "free_part_on_plate": ROBOTS_DIR / "free_part_on_plate.xml",
+    # a bowl feeder's helical track, vibrofriction.contact_feeder with helix_pitch
+    # (vibrofriction.robots.bowl, scripts/robot_bowl.py, tests/test_bowl_feeder.py)
+    "bowl_feeder": ROBOTS_DIR / "bowl_feeder.xml",
 }
 
 
