@@ -18,6 +18,8 @@ EXPECTED = {
     "robot_push.py": r"vibration on : part moved",
     "gym_style_env.py": r"vibration gate 1: part moved",
     "fit_with_mujoco_sysid.py": r"mu 0\.1700 \(true 0\.17\), contact stiffness 60\.00 N/um",
+    # (the batched extra absent: the example says why it skipped)
+    "batched_feeder_env.py": r"conveying speed after 200 ms: 7\.0\d* mm/s|skipped: ",
 }
 NEEDS_MUJOCO_SYSID = {"fit_with_mujoco_sysid.py"}
 
