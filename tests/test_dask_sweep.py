@@ -67,7 +67,8 @@ def test_the_sweep_command_on_a_dask_cluster_equals_its_local_run():
     from vibrofriction.rigs.sweep import sweep
 
     rig = RigParameters()
-    settings = dict(timestep_s=1e-5, duration_s=0.04, settle_time_s=0.03, progress=False)
+    settings = dict(timestep_s=1e-5, duration_s=0.04, settle_time_s=0.03, progress=False,
+                    warn=False)  # short on purpose: the equality, not the value
     local = sweep(rig, default_friction("dahl", rig), [0.75e-3, 3e-3], **settings)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster:

@@ -8,6 +8,7 @@ from pathlib import Path
 import mujoco
 
 from .common import add_common_arguments, check_replaceable_folder, parse_overrides, write_json
+from .sweep import add_method_argument
 from ..data.datasets import all_or_nothing, stage_folder
 from ..provenance import json_text
 from ..params import PAPER_CONTACT_STIFFNESS_N_PER_M, FrictionParameters, ParameterError, \
@@ -38,6 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="steps per vibration period of the timestep ladder "
                              "(dt = T/(N + 0.382)); the finest is the reference")
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    add_method_argument(parser)
     # No --timestep: the ladder and the master grid set every timestep.
     add_common_arguments(parser, law=False, timestep=False)
 
@@ -67,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     # The targets are needed as references.
     needed = list(dict.fromkeys(names + [builtin.VARIANTS[v].target for v in names]))
     cmp_config = comparison_config(args.quick)
-    cmp_changes = {"variants": tuple(needed)}
+    cmp_changes = {"variants": tuple(needed), "method": args.method}
     if args.ladder:
         try:
             steps = tuple(sorted({int(x) for x in args.ladder.split(",")}))
@@ -97,6 +99,9 @@ def run(args: argparse.Namespace) -> int:
         if args.json_path is not None:
             write_json(args.json_path, payload)
     print(builtin.comparison_table(result))
+    if result.costs:
+        print()
+        print(builtin.converged_costs_table(result.costs))
     print(f"wrote {args.out / 'builtin.md'}, {args.out / 'builtin_comparison.png'} and CSV "
           "tables")
     return 0

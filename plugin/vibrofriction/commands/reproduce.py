@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from .common import add_common_arguments, check_replaceable_folder, parse_overrides, write_json
+from .sweep import add_method_argument
 from ..data.datasets import all_or_nothing, stage_folder
 from ..params import PAPER_CONTACT_STIFFNESS_N_PER_M, ParameterError, apply_overrides
 from ..study.claims import _clean, summary_json
@@ -33,6 +34,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-sweep", dest="sweep", action="store_false",
                         help="skip the grid sweep")
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    add_method_argument(parser)
     add_common_arguments(parser, law=False)
     parser.epilog = ("--set NAME=VALUE changes the base parameters of every figure (e.g. "
                      "--set alpha=2); what a figure takes from the paper (v_a, and f, v_d, "
@@ -60,6 +62,7 @@ def config_from_args(args: argparse.Namespace) -> StudyConfig:
         if not args.timestep > 0:
             raise ParameterError(f"--timestep {args.timestep} must be > 0")
         changes["timestep_s"] = args.timestep
+    changes["method"] = getattr(args, "method", "auto")
     return study_config(args.quick, **changes)
 
 

@@ -12,6 +12,7 @@ import sys
 from dataclasses import replace
 
 from .common import UsageError, add_common_arguments, write_json
+from ..rigs.steady import METHODS
 from ..rigs.sweep import sweep, unconverged_lines
 from .simulate import add_run_arguments, parameters_from_args, run_settings
 
@@ -25,6 +26,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              ">= 0, e.g. --va 0.75e-3,3e-3,20e-3")
     add_common_arguments(parser)
     add_run_arguments(parser)
+    add_method_argument(parser)
     parser.add_argument("--threads", type=int, default=None, metavar="N",
                         help="local rollout threads (default: one per CPU core, at most one "
                              "per run); not with --scheduler")
@@ -33,6 +35,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "extra 'dask' and vibrofriction installed on the workers) instead "
                              "of local rollout threads; not with --threads (the workers' own "
                              "threads run the tasks: dask worker --nthreads N)")
+
+
+def add_method_argument(parser: argparse.ArgumentParser) -> None:
+    """--method periodic|transient|auto (shared by sweep, reproduce and compare-builtin)."""
+    parser.add_argument("--method", choices=METHODS, default="auto",
+                        help="how each run reaches its steady state: periodic (solve for the "
+                             "periodic orbit by shooting, rigs.periodic; a point whose orbit "
+                             "is not found is flagged), transient (run from rest until the "
+                             "windowed mean settles), auto (default: periodic where the orbit "
+                             "is found, transient otherwise); each point's \"method\" says "
+                             "which. Not with --duration, which runs fixed-length transients")
 
 
 def parse_amplitudes(text: str) -> list[float]:
@@ -71,10 +84,15 @@ def run(args: argparse.Namespace) -> int:
     for case_rig, _ in cases:
         case_rig.validate()
     settings = run_settings(args, cases)
+    if settings.duration_s is not None and args.method == "periodic":
+        raise UsageError("--method periodic solves for the steady orbit and takes no "
+                         "--duration (a fixed-length run is a transient); drop one of them")
     result = sweep(rig, friction, amplitudes, timestep_s=settings.timestep_s,
                    duration_s=settings.duration_s, settle_time_s=settings.settle_time_s,
                    tolerance=settings.tolerance, max_duration_s=settings.max_duration_s,
-                   nthread=args.threads, scheduler=args.scheduler)
+                   nthread=args.threads, scheduler=args.scheduler,
+                   method="transient" if settings.duration_s is not None else args.method,
+                   warn=False)
     write_json(args.json_path, result)
     for line in unconverged_lines(result, fixed=settings.duration_s is not None):
         print(line, file=sys.stderr)

@@ -57,7 +57,12 @@ class Convergence:
     windows: int  # windows after the transient guess, the reported one included
     relative_change: float  # |m_k - m_{k-1}| / |m_k|
     estimated_remaining_error: float  # |limit - m_k| / |m_k| (geometric estimate; inf if none)
-    simulated_s: float  # end of the reported window
+    simulated_s: float  # end of the reported window (periodic: every step the solver ran)
+    # how the steady state was found: "transient" (this module: windows of a run from rest)
+    # or "periodic" (rigs.periodic: the orbit by shooting); ``note`` says why a periodic
+    # solve fell back to the transient, or how the orbit converged
+    method: str = "transient"
+    note: str = ""
 
     def as_dict(self) -> dict:
         def finite(x: float) -> float | None:
@@ -66,7 +71,7 @@ class Convergence:
                 "window_s": self.window_s, "windows": self.windows,
                 "relative_change": finite(self.relative_change),
                 "estimated_remaining_error": finite(self.estimated_remaining_error),
-                "simulated_s": self.simulated_s}
+                "simulated_s": self.simulated_s, "method": self.method, "note": self.note}
 
 
 @dataclass(frozen=True)
@@ -342,6 +347,17 @@ def convergence_of_run(run: rig_module.RigRun, settle_time_s: float,
                        estimated_remaining_error=remaining, simulated_s=end)
 
 
-__all__ = ["Convergence", "SteadyRun", "run_until_steady", "window_length_s", "judge",
+METHODS = ("auto", "periodic", "transient")
+
+
+def check_method(method: str) -> str:
+    """``method`` if it is one of METHODS, else one clear error."""
+    if method not in METHODS:
+        raise ParameterError(f"method {method!r} is not one of {', '.join(METHODS)} (auto: the "
+                             "periodic orbit where it is found, the transient otherwise)")
+    return method
+
+
+__all__ = ["Convergence", "SteadyRun", "run_until_steady", "METHODS", "check_method", "window_length_s", "judge",
            "hann_mean", "convergence_of_run", "longest_run_s", "DEFAULT_TOLERANCE",
            "DEFAULT_MAX_DURATION_S"]

@@ -10,6 +10,7 @@ and the convergence of its last windows is reported. The result is the JSON obje
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import replace
 from typing import Any, Callable, Sequence
 
@@ -17,7 +18,7 @@ from . import rig as rig_module
 from ..errors import InputError
 from ..params import FrictionParameters, RigParameters, as_dict
 from .steady import (DEFAULT_TOLERANCE, MIN_WINDOWS, Case, Convergence, SteadyRun,
-                     convergence_of_run, run_until_steady)
+                     check_method, convergence_of_run, run_until_steady)
 from ..summary import RunSummary
 
 POINT_KEYS = ("vibration_velocity_amplitude_m_per_s", "kappa", "mean_drive_force_N", "ratio",
@@ -25,7 +26,7 @@ POINT_KEYS = ("vibration_velocity_amplitude_m_per_s", "kappa", "mean_drive_force
 # After the interface's keys, every point (and "static_convergence") says how it converged.
 CONVERGENCE_KEYS = ("converged", "estimated_remaining_error", "relative_change",
                     "window_start_s", "window_end_s", "windows", "window_s", "tolerance",
-                    "timestep_s")
+                    "timestep_s", "method", "method_note")
 
 
 CONNECT_TIMEOUT_S = 10  # waiting for a --scheduler to answer
@@ -40,7 +41,8 @@ def run_cases(cases: Sequence[Case], *, timestep_s: float | None = None,
               settle_time_s: float | None = None, tolerance: float = DEFAULT_TOLERANCE,
               max_duration_s: float | None = None, nthread: int | None = None,
               chunk_size: int | None = None, scheduler: Any = None,
-              progress: Any = None, keep_series: bool = False) -> list[SteadyRun]:
+              progress: Any = None, keep_series: bool = False,
+              method: str = "auto") -> list[SteadyRun]:
     """The one engine of the package's sweeps: each case's summary and convergence, in the
     cases' order.
 
@@ -50,11 +52,23 @@ def run_cases(cases: Sequence[Case], *, timestep_s: float | None = None,
     together, or with ``chunk_size`` a chunk at a time (coarse timesteps first; the memory of a
     chunk's runs is bounded). With ``scheduler`` (a Dask address or ``Client``) each chunk (one
     case without ``chunk_size``) is a task on that cluster. A case's result depends only on its
-    own parameters and timestep, not on the chunks. ``progress(done, total)`` counts cases."""
+    own parameters and timestep, not on the chunks. ``progress(done, total)`` counts cases.
+
+    ``method`` (to steady state only): "periodic" solves for each case's periodic orbit
+    (``rigs.periodic``: a case whose orbit is not found is flagged unconverged), "transient"
+    runs each from rest until its windows settle (``steady``), "auto" (default) the orbit
+    where it is found and the transient otherwise; each result's ``convergence.method`` says
+    which. A run of fixed ``duration_s``, or one that keeps its time series, is a transient."""
+    check_method(method)
+    if duration_s is not None and method == "periodic":
+        raise InputError("a run of fixed duration is a transient: method 'periodic' solves "
+                         "for the steady orbit and takes no duration; drop one of them")
     if not cases:
         return []
+    if keep_series:
+        method = "transient"  # the time series from rest
     settings = dict(duration_s=duration_s, settle_time_s=settle_time_s, tolerance=tolerance,
-                    max_duration_s=max_duration_s)
+                    max_duration_s=max_duration_s, method=method)
     if duration_s is not None:  # one timestep and one averaging window for every case
         if timestep_s is None:
             timestep_s = min(rig_module.recommended_timestep(r) for r, _ in cases)
@@ -104,6 +118,12 @@ def _run_chunk(job: tuple) -> list[SteadyRun]:
     cases, dts, settings, progress = job
     settings = dict(settings)
     duration_s, settle_time_s = settings.pop("duration_s"), settings.pop("settle_time_s")
+    method = settings.pop("method", "transient")
+    if duration_s is None and method != "transient":
+        from .periodic import run_periodic
+        return run_periodic(cases, timesteps=dts, tolerance=settings["tolerance"],
+                            fallback=method == "auto", max_duration_s=settings["max_duration_s"],
+                            nthread=settings["nthread"], progress=progress)
     if duration_s is None:
         return run_until_steady(cases, timesteps=dts, progress=progress, **settings)
     tolerance, keep_series = settings["tolerance"], settings["keep_series"]
@@ -163,9 +183,13 @@ def sweep(rig: RigParameters, friction: FrictionParameters, amplitudes: list[flo
           timestep_s: float | None = None, duration_s: float | None = None,
           settle_time_s: float | None = None, tolerance: float = DEFAULT_TOLERANCE,
           max_duration_s: float | None = None, nthread: int | None = None,
-          progress: bool = True, scheduler: Any = None) -> dict[str, Any]:
+          progress: bool = True, scheduler: Any = None, method: str = "auto",
+          warn: bool = True) -> dict[str, Any]:
     """Run the sweep; return the docs/interfaces.md JSON object. Local rollout threads, or with
-    ``scheduler`` (a Dask address or Client) one task per amplitude on that cluster."""
+    ``scheduler`` (a Dask address or Client) one task per amplitude on that cluster.
+    ``method``: ``run_cases``'s (default auto: each point's periodic orbit where it is found,
+    its transient otherwise; each point says which). With ``warn``, a point that did not
+    converge raises ``rig.UnconvergedWarning`` (its number is flagged "converged": false)."""
     if nthread is not None and scheduler is not None:
         # a Dask worker runs each amplitude on the threads it was started with
         raise InputError(f"nthread={nthread} sets local rollout threads and cannot be combined "
@@ -178,7 +202,7 @@ def sweep(rig: RigParameters, friction: FrictionParameters, amplitudes: list[flo
     results = run_cases(cases, timestep_s=timestep_s, duration_s=duration_s,
                         settle_time_s=settle_time_s, tolerance=tolerance,
                         max_duration_s=max_duration_s, nthread=nthread, scheduler=scheduler,
-                        progress=report)
+                        progress=report, method=method)
     static = results[0].summary.mean_drive_force_N
     points = []
     for (case_rig, _), result in zip(cases[1:], results[1:]):
@@ -194,11 +218,16 @@ def sweep(rig: RigParameters, friction: FrictionParameters, amplitudes: list[flo
             "sign_change": s.sign_change,
             **convergence_fields(result.timestep_s, s, result.convergence),
         })
-    return {"law": friction.law, "parameters": as_dict(rig, friction),
-            "static_drive_force_N": static, "points": points,
-            "static_convergence": convergence_fields(results[0].timestep_s, results[0].summary,
-                                                     results[0].convergence),
-            "all_converged": all(r.convergence.converged for r in results)}
+    result = {"law": friction.law, "parameters": as_dict(rig, friction),
+              "static_drive_force_N": static, "points": points,
+              "static_convergence": convergence_fields(results[0].timestep_s,
+                                                       results[0].summary,
+                                                       results[0].convergence),
+              "all_converged": all(r.convergence.converged for r in results)}
+    if warn and not result["all_converged"]:
+        warnings.warn("; ".join(unconverged_lines(result, fixed=duration_s is not None)),
+                      rig_module.UnconvergedWarning, stacklevel=2)
+    return result
 
 
 def convergence_fields(timestep_s: float, summary: RunSummary,
@@ -211,12 +240,17 @@ def convergence_fields(timestep_s: float, summary: RunSummary,
             "window_start_s": summary.window_start_s, "window_end_s": summary.window_end_s,
             "windows": convergence.windows, "window_s": convergence.window_s,
             "tolerance": convergence.tolerance,
-            "timestep_s": timestep_s}
+            "timestep_s": timestep_s, "method": convergence.method,
+            "method_note": convergence.note}
 
 
 def unconverged_line(command: str, label: str, convergence: Convergence, *,
                      fixed: bool = False) -> str:
     """The stderr warning for one run that did not converge (``fixed``: of --duration)."""
+    if convergence.method == "periodic":
+        return (f"{command}: warning: {label}: its periodic orbit was not found or is "
+                f"uncertain ({convergence.note}); it is flagged \"converged\": false. Use "
+                "--method auto (the transient where the orbit is not found) or transient")
     if convergence.windows < MIN_WINDOWS:
         return (f"{command}: warning: {label} is too short to judge its convergence: "
                 f"{convergence.windows} averaging window(s) of {convergence.window_s:.4g} s fit "
@@ -246,7 +280,8 @@ def unconverged_lines(result: dict[str, Any], *, fixed: bool = False) -> list[st
                 windows=fields["windows"],
                 relative_change=_inf(fields["relative_change"]),
                 estimated_remaining_error=_inf(fields["estimated_remaining_error"]),
-                simulated_s=fields["window_end_s"]), fixed=fixed))
+                simulated_s=fields["window_end_s"], method=fields.get("method", "transient"),
+                note=fields.get("method_note", "")), fixed=fixed))
     return lines
 
 

@@ -281,11 +281,18 @@ class ComparisonConfig:
     master_kappas: tuple[float, ...] = (0.5, 1.0, 1.5, 2.0, 3.0, 6.0, 12.0, 24.0)
     master_steps: int = 200
     tolerance: float = 0.01
+    # The cost of the converged master curve at 1 % per law family (converged_curve_costs):
+    # its kappa_v grid (empty: not run), the built-in's refinements of the rule's step, and
+    # the product's route (rigs.sweep.run_cases method).
+    cost_kappas: tuple[float, ...] = tuple(float(k) for k in np.geomspace(0.5, 50.0, 30))
+    cost_refinements: int = 4
+    method: str = "auto"
 
     @classmethod
     def quick(cls) -> "ComparisonConfig":
         return cls(operating_kappas=(1.5, 6.0), ladder_steps=(25, 100, 400),
-                   master_kappas=(1.0, 1.5, 6.0), master_steps=100)
+                   master_kappas=(1.0, 1.5, 6.0), master_steps=100,
+                   cost_kappas=(1.5, 6.0, 24.0), cost_refinements=1)
 
 
 @dataclass(frozen=True)
@@ -335,6 +342,7 @@ class Comparison:
     rows: list[VariantSummary]
     frequency_Hz: float
     duration_s: float
+    costs: dict | None = None  # converged_curve_costs over config.cost_kappas
 
 
 def _required(errors: Sequence[float], dts: Sequence[float], tol: float, *,
@@ -398,8 +406,21 @@ def compare(config: StudyConfig, comparison: ComparisonConfig, *,
                           progress=prog("traces"))
     rows = _summaries(comparison, ladder, master, static)
     duration = rig_module.default_times(base, config.friction_for("coulomb", base))[0]
+    costs = None
+    laws = [law for law, v in PLUGIN_OF_LAW.items() if v in comparison.variants]
+    if comparison.cost_kappas and laws:
+        # 4. What the converged curve costs by each route (the converged curve: the product's
+        # own route at a quarter of the rule's step, validated against transients in tests)
+        report = prog("converged master curves")
+        costs = converged_curve_costs(
+            config, comparison.cost_kappas, laws=laws, truth_method=comparison.method,
+            method=comparison.method, builtin_refinements=comparison.cost_refinements,
+            variants=comparison.variants,
+            log=(lambda text: report(laws.index(text.split(":")[0]) + 1, len(laws)))
+            if report else None)
     return Comparison(config=comparison, ladder=ladder, master=master, static=static,
-                      traces=traces, rows=rows, frequency_Hz=f, duration_s=duration)
+                      traces=traces, rows=rows, frequency_Hz=f, duration_s=duration,
+                      costs=costs)
 
 
 def _summaries(comparison: ComparisonConfig, ladder: Sequence[LadderResult],
@@ -620,6 +641,26 @@ time) of one single-thread run of {result.duration_s * 1e3:.0f} ms of simulated 
 (the calling thread's CPU time does not depend on other load on the machine).
 {_not_run_note()}
 {comparison_table(result)}
+{_costs_markdown(result)}"""
+
+
+def _costs_markdown(result: Comparison) -> str:
+    if not result.costs:
+        return ""
+    c = result.costs
+    return f"""
+## The converged master curve: what it costs by each route
+
+{len(c['kappas'])} values of kappa_v from {c['kappas'][0]:g} to {c['kappas'][-1]:g} and the
+static run, per law family, CPU seconds (single thread, measured side by side in this run) to
+every point within {c['accuracy']:.0%} of the converged curve (the plugin at a quarter of the
+rule's step, by the {c['truth_method']} route). **periodic**: the product's route (each point's
+periodic orbit, `vibrofriction.rigs.periodic`; the transient where none is found);
+**transient**: the plugin run from rest until its windows settle; **built-in**: MuJoCo's
+element run from rest as long as the plugin's transient of each point, at the coarsest
+refinement of the rule's step within {c['accuracy']:.0%}.
+
+{converged_costs_table(c)}
 """
 
 
@@ -634,4 +675,147 @@ def _not_run_note() -> str:
 __all__ = ["Variant", "VARIANTS", "BUILTIN_VARIANTS", "PLUGIN_VARIANTS", "build_variant_spec",
            "unavailable_variants", "available_variants",
            "run_variants", "VariantRun", "ComparisonConfig", "Comparison", "compare",
-           "comparison_table", "comparison_markdown", "write_comparison", "plot_comparison"]
+           "comparison_table", "comparison_markdown", "write_comparison", "plot_comparison",
+           "BUILTIN_ROUTES", "converged_curve_costs", "converged_costs_table", "curve_cases"]
+
+
+# ----------------------------------------------------------------------------- converged cost
+# The built-in elements that model each plugin law family (tight settings: the defaults do not
+# reach 1 %); Dahl has none.
+BUILTIN_ROUTES: dict[str, tuple[str, ...]] = {
+    "coulomb": ("frictionloss-tight", "contact-tight"), "lugre": ("dcmotor-lugre",),
+    "dupont": ("springyield",)}
+PLUGIN_OF_LAW = {"coulomb": "plugin-coulomb", "dahl": "plugin-dahl", "lugre": "plugin-lugre",
+                 "dupont": "plugin-dupont-jenkins"}
+CURVE_ACCURACY = 0.01
+MAX_PLUGIN_REFINEMENTS = 2  # the plugin's timestep: the rule's / 2^j, j <= 2
+MAX_BUILTIN_REFINEMENTS = 4  # the built-in's: the rule's / 2^j, j <= 4
+TRUTH_REFINEMENT = 2  # the converged curve: the plugin at a quarter of the rule's timestep
+
+
+def curve_cases(law: str, kappas: Sequence[float], config: StudyConfig) -> list[tuple]:
+    """The static run and one run per kappa_v of the plugin law's master curve."""
+    base = config.rig
+    cases = []
+    for kappa in [0.0, *kappas]:
+        rig = replace(base, vibration_velocity_amplitude_m_per_s=kappa
+                      * base.drive_velocity_m_per_s)
+        cases.append((rig, variant_friction(VARIANTS[PLUGIN_OF_LAW[law]], rig, config)))
+    return cases
+
+
+def _timed_curve(cases: list[tuple], refine: int, method: str) -> tuple[list, float]:
+    from ..rigs.sweep import run_cases
+    dts = [rig_module.recommended_timestep(r) / 2 ** refine for r, _ in cases]
+    start = time.process_time()
+    runs = run_cases(cases, timesteps=dts, nthread=1, method=method)
+    return runs, time.process_time() - start
+
+
+def _builtin_point(variant: str, run, config: StudyConfig, timestep_s: float
+                   ) -> tuple[float, float]:
+    """(mean drive force over ``run``'s window, CPU seconds) of a built-in variant run from
+    rest to the end of that window (what a user of MuJoCo's element runs to steady state)."""
+    from ..rigs.steady import hann_mean
+    model = build_variant_spec(variant, run.rig, config, timestep_s).compile()
+    data = mujoco.MjData(model)
+    state = rig_module.initial_state(model, data)
+    nstep = int(math.ceil(run.summary.window_end_s / timestep_s)) + 2
+    start = time.process_time()
+    _, sensordata = mj_rollout.rollout(model, data, state[None], nstep=nstep)
+    cpu = time.process_time() - start
+    drive = rig_module.drive_force_columns(model, run.rig, sensordata[0])
+    t = np.arange(nstep) * timestep_s
+    if not np.all(np.isfinite(drive)):
+        return math.nan, cpu
+    return hann_mean(t, drive, run.summary.window_start_s, run.summary.window_end_s), cpu
+
+
+def converged_curve_costs(config: StudyConfig, kappas: Sequence[float], *,
+                          laws: Sequence[str] = ("coulomb", "dahl", "dupont", "lugre"),
+                          truth_method: str = "transient", method: str = "auto",
+                          builtin_refinements: int = MAX_BUILTIN_REFINEMENTS,
+                          variants: Sequence[str] | None = None,
+                          log: Callable[[str], None] | None = None) -> dict:
+    """CPU time to the converged master curve at CURVE_ACCURACY (every point, the static run
+    included, within 1 % of the converged curve: the plugin at a quarter of the rule's
+    timestep, run by ``truth_method``), per law family, measured side by side in one process,
+    single thread:
+
+    * **periodic**: the product's fastest route (``run_cases`` ``method`` auto: each point's
+      periodic orbit, the transient where none is found) at the coarsest refinement of the
+      rule's timestep (/2^j, j <= 2) within 1 %;
+    * **transient**: the plugin's runs from rest to steady state at that refinement;
+    * **built-in**: each MuJoCo element modelling the law, run from rest as long as the
+      plugin's transient of that point ran and averaged over the same window, at the coarsest
+      refinement of the rule's timestep (/2^j, j <= ``builtin_refinements``) within 1 %; the
+      best (cheapest that reaches 1 %) is the law's built-in route (``variants``: the built-in
+      elements allowed, default all this MuJoCo has)."""
+    say = log or (lambda text: None)
+    out: dict = {"kappas": list(kappas), "accuracy": CURVE_ACCURACY, "truth_method": truth_method,
+                 "laws": {}}
+    for law in laws:
+        cases = curve_cases(law, kappas, config)
+        truth_runs, _ = _timed_curve(cases, TRUTH_REFINEMENT, truth_method)
+        truth = [r.mean_drive_force_N for r in truth_runs]
+
+        def error(runs):
+            return max(abs(r.mean_drive_force_N / t - 1) for r, t in zip(runs, truth))
+        entry: dict = {}
+        for refine in range(MAX_PLUGIN_REFINEMENTS + 1):
+            runs, cpu = _timed_curve(cases, refine, method)
+            if error(runs) <= CURVE_ACCURACY or refine == MAX_PLUGIN_REFINEMENTS:
+                break
+        entry["periodic"] = {
+            "cpu_s": cpu, "refinement": refine, "error": error(runs),
+            "reached": error(runs) <= CURVE_ACCURACY,
+            "periodic_points": sum(r.convergence.method == "periodic" for r in runs),
+            "converged": sum(r.convergence.converged for r in runs), "runs": len(runs)}
+        transient, t_cpu = _timed_curve(cases, refine, "transient")
+        entry["transient"] = {"cpu_s": t_cpu, "refinement": refine, "error": error(transient),
+                              "converged": sum(r.convergence.converged for r in transient)}
+        say(f"{law}: periodic {cpu:.2f} s CPU at dt/{2 ** refine} (error {error(runs):.2%}, "
+            f"{entry['periodic']['periodic_points']} of {len(runs)} points periodic), "
+            f"transient {t_cpu:.2f} s")
+        routes = []
+        allowed = [v for v in BUILTIN_ROUTES.get(law, ()) if variants is None or v in variants]
+        for variant in available_variants(allowed):
+            for j in range(builtin_refinements + 1):
+                b_cpu, worst = 0.0, 0.0
+                for run, target in zip(transient, truth):
+                    dt = rig_module.recommended_timestep(run.rig) / 2 ** j
+                    mean, seconds = _builtin_point(variant, run, config, dt)
+                    b_cpu += seconds
+                    worst = max(worst, abs(mean / target - 1)) if math.isfinite(mean) \
+                        else math.inf
+                if worst <= CURVE_ACCURACY:
+                    break
+            routes.append({"variant": variant, "cpu_s": b_cpu, "refinement": j,
+                           "error": worst, "reached": worst <= CURVE_ACCURACY})
+            say(f"{law}: built-in {routes[-1]}")
+        entry["builtin_routes"] = routes
+        if routes:
+            reached = [r for r in routes if r["reached"]]
+            best = min(reached or routes, key=lambda r: r["cpu_s"])
+            entry["builtin"] = dict(best, ratio=best["cpu_s"] / cpu)
+        out["laws"][law] = entry
+    return out
+
+
+def converged_costs_table(costs: dict) -> str:
+    """Markdown: per law, CPU to the converged master curve by each route, side by side."""
+    acc = costs["accuracy"]
+    lines = [f"| law | periodic (product) | transient (product) | best built-in reaching "
+             f"{acc:.0%} | built-in / periodic |", "|---|---|---|---|---|"]
+    for law, e in costs["laws"].items():
+        p, t = e["periodic"], e["transient"]
+        b = e.get("builtin")
+        built = "none" if b is None else (
+            f"{b['variant']}: {b['cpu_s']:.2f} s at dt/{2 ** b['refinement']}"
+            + ("" if b["reached"] else f", **not reached** ({b['error']:.1%})"))
+        ratio = "-" if b is None else (f"{b['ratio']:.1f}" + ("" if b["reached"] else " (>)"))
+        lines.append(
+            f"| {law} | {p['cpu_s']:.2f} s at dt/{2 ** p['refinement']} ({p['error']:.2%}; "
+            f"{p['periodic_points']}/{p['runs']} periodic) | {t['cpu_s']:.2f} s "
+            f"({t['error']:.2%}) | {built} | {ratio} |")
+    return "\n".join(lines)

@@ -28,6 +28,7 @@ from .config import (EXPERIMENT_FIG13, EXPERIMENT_FIG14, MM_PER_S, N_PER_UM, Stu
 from .figures import ExperimentTraces, MasterPoint, StiffnessStudy, curve
 from .output import LAW_LABELS
 from .runner import Trace
+from ..rigs import rig as rig_module
 from ..rigs.steady import hann_mean
 from .sweep import SweepResult
 
@@ -120,6 +121,13 @@ def _oracle_check(results: StudyResults, worst_below: float) -> dict[str, Any] |
     start, end = p.window_start_s, p.window_end_s
     if not (math.isfinite(start) and math.isfinite(end)):
         return None
+    # A periodic orbit's window may lie early (the orbit was solved for, not waited for): the
+    # oracle, run from rest, takes it whole periods later, after its own transient.
+    settle_s = rig_module.default_times(rig, friction)[1]
+    if start < settle_s and rig.vibration_frequency_Hz > 0:
+        shift_s = math.ceil((settle_s - start) * rig.vibration_frequency_Hz) \
+            / rig.vibration_frequency_Hz
+        start, end = start + shift_s, end + shift_s
     ref = reference.simulate_reference(rig, friction, end + 1e-4, sample_dt_s=2e-6)
     oracle_mean = hann_mean(ref.time_s, ref.drive_force_N, start, end)
     kt = friction.contact_stiffness_N_per_m

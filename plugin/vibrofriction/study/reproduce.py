@@ -29,7 +29,8 @@ def comparison_config(quick: bool) -> builtin.ComparisonConfig:
         return builtin.ComparisonConfig(variants=variants)
     return builtin.ComparisonConfig(variants=variants, operating_kappas=(1.5, 6.0),
                                     ladder_steps=(25, 50, 200), master_kappas=(1.0, 1.5, 6.0),
-                                    master_steps=50)
+                                    master_steps=50, cost_kappas=(1.5, 6.0, 24.0),
+                                    cost_refinements=1)
 
 
 def reproduce(out: Path = DEFAULT_OUT, *, config: StudyConfig | None = None,
@@ -104,6 +105,7 @@ def comparison_json(result: builtin.Comparison) -> dict[str, Any]:
             "wall_own_s": clean(r.wall_own_s), "wall_target_s": clean(r.wall_target_s),
             "cpu_own_s": clean(r.cpu_own_s), "cpu_target_s": clean(r.cpu_target_s),
         } for r in result.rows],
+        "converged_costs": result.costs,
     }
 
 

@@ -1,8 +1,9 @@
 """Running many rig cases for the study: timestep rule, runs to steady state, summaries only.
 
-Each case runs at its timestep (``StudyConfig.timestep``) until its mean drive force has
+Each case runs at its timestep (``StudyConfig.timestep``) to its steady state: by default its
+periodic orbit (``rigs.periodic``), where that is not found until its mean drive force has
 converged (``steady.run_until_steady``: Hann-weighted windows of whole periods after the
-transient, within 0.1 %), so a number does not depend on which cases happened to run beside
+transient, within 0.1 %; ``StudyConfig.method`` chooses), so a number does not depend on which cases happened to run beside
 it. Cases are run by the package's one engine (``rigs.sweep.run_cases``): together on MuJoCo's
 rollout threads, a few at a time, or chunk by chunk on a Dask cluster.
 """
@@ -37,7 +38,7 @@ def run_points(cases: Sequence[Case], config: StudyConfig, *,
     time, locally or on the Dask cluster ``scheduler``."""
     dts = list(timesteps) if timesteps is not None else [config.timestep(r) for r, _ in cases]
     return run_cases(cases, timesteps=dts, chunk_size=chunk_size, scheduler=scheduler,
-                     progress=progress)
+                     progress=progress, method=config.method)
 
 
 def static_cases(cases: Sequence[Case]) -> list[Case]:
