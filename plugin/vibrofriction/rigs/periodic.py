@@ -32,6 +32,7 @@ says so (``Convergence.method``).
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from dataclasses import dataclass, field, replace
@@ -148,6 +149,22 @@ class PeriodicOrbit:
         return float(np.max(np.abs(self.multipliers))) if self.multipliers.size else 0.0
 
 
+@contextlib.contextmanager
+def _trial_warnings_held():
+    """MuJoCo's warnings of a trial state (a Newton step or a finite-difference column that
+    diverged) kept from MUJOCO_LOG.TXT in the user's folder: the map marks such a trial NaN and
+    the solver steps back. A handler the user set stays in charge."""
+    previous = mujoco.get_mju_user_warning()
+    if previous is not None:
+        yield
+        return
+    mujoco.set_mju_user_warning(lambda message: None)
+    try:
+        yield
+    finally:
+        mujoco.set_mju_user_warning(None)
+
+
 @dataclass
 class _Map:
     """The period map of ``multiple`` periods from a full-state template at time t0."""
@@ -171,8 +188,9 @@ class _Map:
         """(end coordinates (n, k), sensor means (n, nsensordata), orbit sensordata of the
         first state if keep)."""
         xs = np.atleast_2d(xs)
-        state, sensordata = mj_rollout.rollout(self.model, self.data, self.states(xs),
-                                               nstep=self.steps)
+        with _trial_warnings_held():
+            state, sensordata = mj_rollout.rollout(self.model, self.data, self.states(xs),
+                                                   nstep=self.steps)
         self.evaluations += xs.shape[0]
         self.steps_run += xs.shape[0] * self.steps
         end = state[:, -1, :]
