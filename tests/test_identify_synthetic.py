@@ -168,7 +168,7 @@ def test_cli_writes_the_report(records, tmp_path, capsys) -> None:
     assert set(report["baseline"]) == {"parameters", "train", "validation"}
     # the final block also says what the data inform and where a sample dominates
     assert set(report["final"]) == {"parameters", "train", "validation", "identifiability",
-                                    "presliding", "residual_outliers",
+                                    "presliding", "residual_outliers", "biased_in_baseline",
                                     "friction_coefficient_unit"}
     for block in (report["baseline"], report["final"]):
         assert set(block["train"]) == {"rmse_N", "relerr_pct"}

@@ -750,7 +750,7 @@ def run_periodic(cases: Sequence[tuple[RigParameters, FrictionParameters]], *,
     steady state by ``steady.run_until_steady`` ("transient", its ``note`` saying why);
     without it the case is flagged unconverged (its numbers those of the last orbit tried, or
     NaN)."""
-    from .steady import Convergence, SteadyRun, run_until_steady
+    from .steady import Convergence, SteadyRun, check_timestep, run_until_steady
     if not (tolerance > 0 and math.isfinite(tolerance)):
         raise ParameterError(f"tolerance {_plain(tolerance)!r} must be a positive number "
                              "(a relative error, e.g. 1e-3)")
@@ -758,12 +758,15 @@ def run_periodic(cases: Sequence[tuple[RigParameters, FrictionParameters]], *,
            else [rig_module.recommended_timestep(r) for r, _ in cases])
     if len(dts) != len(cases):
         raise ValueError(f"{len(dts)} timesteps for {len(cases)} cases")
+    for (r, _), dt in zip(cases, dts):  # (a fallback would refuse it after the solve)
+        check_timestep(r, dt)
     out: list = [None] * len(cases)
     failed: list[int] = []
     notes: dict[int, str] = {}
     done = 0
     for i, ((r, f), dt) in enumerate(zip(cases, dts)):
-        orbit = solve_rig(r, f, timestep_s=dt, tolerance=tolerance)
+        with _trial_warnings_held():  # (a run that diverges is flagged or falls back)
+            orbit = solve_rig(r, f, timestep_s=dt, tolerance=tolerance)
         if orbit.summary is not None and (orbit.converged or not fallback):
             relative = orbit.mean_residual / max(abs(orbit.summary.mean_drive_force_N), 1e-300)
             out[i] = SteadyRun(rig=r, friction=f, timestep_s=orbit.timestep_s,

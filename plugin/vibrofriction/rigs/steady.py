@@ -172,6 +172,16 @@ class _Case:
         return start, start + self.window_s
 
 
+def check_timestep(rig: RigParameters, timestep_s: float) -> None:
+    """ParameterError when a run to steady state cannot average at this timestep (either
+    route: checked before anything is simulated)."""
+    if not (timestep_s > 0 and timestep_s <= window_length_s(rig) / HOPS_PER_WINDOW / 10):
+        raise ParameterError(
+            f"timestep {_plain(timestep_s)} s is too coarse to average over windows of "
+            f"{window_length_s(rig):.4g} s (at most a tenth of a quarter window); use a "
+            "smaller --timestep")
+
+
 def run_until_steady(cases: Sequence[Case], *, timesteps: Sequence[float] | None = None,
                      tolerance: float = DEFAULT_TOLERANCE,
                      max_duration_s: float | None = None, keep_series: bool = False,
@@ -192,11 +202,7 @@ def run_until_steady(cases: Sequence[Case], *, timesteps: Sequence[float] | None
         raise ValueError(f"{len(dts)} timesteps for {len(cases)} cases")
     todo: list[_Case] = []
     for i, ((r, f), dt) in enumerate(zip(cases, dts)):
-        if not (dt > 0 and dt <= window_length_s(r) / HOPS_PER_WINDOW / 10):
-            raise ParameterError(
-                f"timestep {_plain(dt)} s is too coarse to average over windows of "
-                f"{window_length_s(r):.4g} s (at most a tenth of a quarter window); use a "
-                "smaller --timestep")
+        check_timestep(r, dt)
         model = rig_module.build_model(r, f, dt)
         settle = rig_module.default_times(r, f)[1]
         window = window_length_s(r)
@@ -358,6 +364,7 @@ def check_method(method: str) -> str:
     return method
 
 
-__all__ = ["Convergence", "SteadyRun", "run_until_steady", "METHODS", "check_method", "window_length_s", "judge",
+__all__ = ["Convergence", "SteadyRun", "run_until_steady", "check_timestep", "METHODS",
+           "check_method", "window_length_s", "judge",
            "hann_mean", "convergence_of_run", "longest_run_s", "DEFAULT_TOLERANCE",
            "DEFAULT_MAX_DURATION_S"]
