@@ -43,8 +43,8 @@ OWN_KEYS = {
     "contact_averaged": {"support", "support_geom", "torsion_radius", "velocity_amplitude", "axis",
                          "table_xi", "table_angle", "table_along", "table_across",
                          "table_checksum"},
-    "contact_feeder": {"support", "support_geom", "torsion_radius", "axis", "map_velocity",
-                       "map_force"},
+    "contact_feeder": {"support", "support_geom", "torsion_radius", "axis", "helix_pitch",
+                       "map_velocity", "map_force"},
 }
 TABLE_KEYS = {term.mjcf_key for term in FRICTION_TERMS}
 
@@ -126,7 +126,8 @@ def test_the_cpp_law_parameters_have_the_tables_defaults() -> None:
     declared = re.findall(r"\b(\w+) (\w+) = ([^;]+);", struct)
     # the lists (gms elements, level maps) are members of their own structs, checked below
     declared = [d for d in declared if d[0] != "LevelMap"]
-    assert re.findall(r"\bLevelMap (\w+)", struct) == ["position_map", "velocity_map"]
+    assert re.findall(r"\bLevelMap (\w+)", struct) == ["position_map", "velocity_map",
+                                                         "time_map"]
     assert re.findall(r"\bGmsElements (\w+);", struct) == ["gms"]
     assert declared[0][:2] == ("Law", "law")
     defaults = {name: _number(value) for kind, name, value in declared[1:]
@@ -156,7 +157,7 @@ def test_the_cpp_law_parameters_have_the_tables_defaults() -> None:
         "knot", "factor", "curvature"]
     assert [t.name for t in FRICTION_TERMS if t.is_list and "map" in t.name] == [
         "position_map_knots_m", "position_map_factors", "velocity_map_knots_m_per_s",
-        "velocity_map_factors"]
+        "velocity_map_factors", "time_map_knots_s", "time_map_factors"]
     assert _number(re.search(r"double period = ([^;]+);", level_map).group(1)) == \
         TERMS_BY_NAME["position_map_period_m"].default
 

@@ -189,12 +189,15 @@ class FrictionParameters:
     gms_weights: tuple[float, ...] = DEFAULTS["gms_weights"]
     gms_relaxation_time_s: float = DEFAULTS["gms_relaxation_time_s"]
     # The level times max(0, 1 + s), s a cubic spline through (knot, factor) pairs along the
-    # relative position (periodic when the period is > 0) and over the speed |v| (1D element)
+    # relative position (periodic when the period is > 0), over the speed |v| and over the
+    # time t (drift: heating, run-in, wear) (1D element)
     position_map_knots_m: tuple[float, ...] = DEFAULTS["position_map_knots_m"]
     position_map_factors: tuple[float, ...] = DEFAULTS["position_map_factors"]
     position_map_period_m: float = DEFAULTS["position_map_period_m"]
     velocity_map_knots_m_per_s: tuple[float, ...] = DEFAULTS["velocity_map_knots_m_per_s"]
     velocity_map_factors: tuple[float, ...] = DEFAULTS["velocity_map_factors"]
+    time_map_knots_s: tuple[float, ...] = DEFAULTS["time_map_knots_s"]
+    time_map_factors: tuple[float, ...] = DEFAULTS["time_map_factors"]
     sensor_lag_s: float = DEFAULTS["sensor_lag_s"]  # first-order lag of the reported force
 
     def __post_init__(self) -> None:
@@ -235,6 +238,7 @@ class FrictionParameters:
                            self.position_map_period_m)
         self._validate_map("velocity_map", self.velocity_map_knots_m_per_s,
                            self.velocity_map_factors, 0.0)
+        self._validate_map("time_map", self.time_map_knots_s, self.time_map_factors, 0.0)
         _require(self.friction_coefficient >= 0, "friction_coefficient",
                  self.friction_coefficient, "must be >= 0")
         if self.law not in ("coulomb", "gms"):  # (gms: its elements' stiffnesses)
@@ -272,7 +276,7 @@ class FrictionParameters:
     @staticmethod
     def _validate_map(name: str, knots: tuple[float, ...], factors: tuple[float, ...],
                       period: float) -> None:
-        knots_name = f"{name}_knots_m" + ("_per_s" if name == "velocity_map" else "")
+        knots_name = f"{name}_knots_" + {"velocity_map": "m_per_s", "time_map": "s"}.get(name, "m")
         if len(knots) != len(factors):
             raise ParameterError(f"{knots_name} has {len(knots)} values and {name}_factors "
                                  f"{len(factors)}; give one factor per knot")
@@ -287,6 +291,8 @@ class FrictionParameters:
                  "must increase")
         if name == "velocity_map":
             _require(all(k >= 0 for k in knots), knots_name, knots, "must be speeds >= 0")
+        if name == "time_map":
+            _require(all(k >= 0 for k in knots), knots_name, knots, "must be times >= 0 (s)")
         _require(math.isfinite(period) and period >= 0, f"{name}_period_m", period,
                  "must be finite and >= 0 (0: not periodic)")
         if period > 0 and knots:

@@ -102,8 +102,9 @@ FRICTION_TERMS: tuple[Term, ...] = (
     Term("gms_weights", "gms_weight", None, "-", (), None, ("gms",), GMS_ELEMENTS),
     Term("gms_relaxation_time_s", "gms_relaxation_time", None, "s", 0.0, (0.0, 1e3), ("gms",),
          GMS_ELEMENTS),
-    # Level maps (LawParameters::position_map, velocity_map; lists, so not in the C API struct:
-    # vf_run_law_with_lists takes them): the level times 1 + a cubic spline through the factors
+    # Level maps (LawParameters::position_map, velocity_map, time_map; lists, so not in the C
+    # API struct: vf_run_law_with_lists takes them): the level times 1 + a cubic spline through
+    # the factors
     Term("position_map_knots_m", "position_map_knots", None, "m", (), (0.0, 1e6), ALL_LAWS,
          LINE_ELEMENT_ONLY, shapes="position_map_factors"),
     Term("position_map_factors", "position_map_factors", None, "-", (), (0.0, 1e3), ALL_LAWS,
@@ -113,6 +114,10 @@ FRICTION_TERMS: tuple[Term, ...] = (
     Term("velocity_map_knots_m_per_s", "velocity_map_knots", None, "m/s", (), (0.0, 1e3),
          ALL_LAWS, LINE_ELEMENT_ONLY, shapes="velocity_map_factors"),
     Term("velocity_map_factors", "velocity_map_factors", None, "-", (), (0.0, 1e3), ALL_LAWS,
+         LINE_ELEMENT_ONLY),
+    Term("time_map_knots_s", "time_map_knots", None, "s", (), (0.0, 1e9), ALL_LAWS,
+         LINE_ELEMENT_ONLY, shapes="time_map_factors"),
+    Term("time_map_factors", "time_map_factors", None, "-", (), (0.0, 1e3), ALL_LAWS,
          LINE_ELEMENT_ONLY),
     # (the element's reporting, not the law: kept by the element, not in LawParameters)
     Term("sensor_lag_s", "sensor_lag", None, "s", 0.0, (0.0, 1e3), ALL_LAWS, LINE_ELEMENT_ONLY),

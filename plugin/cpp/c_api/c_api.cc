@@ -44,14 +44,25 @@ bool SetLawLists(const vf_law_lists* lists, LawParameters* p) {
       return false;
     }
   }
-  for (const bool velocity : {false, true}) {
-    const int n = velocity ? lists->velocity_map_count : lists->position_map_count;
-    const double* knots = velocity ? lists->velocity_map_knots : lists->position_map_knots;
-    const double* factors = velocity ? lists->velocity_map_factors : lists->position_map_factors;
-    if (n > 0 && (!knots || !factors)) return false;
-    LevelMap& map = velocity ? p->velocity_map : p->position_map;
-    if (!MakeLevelMap(knots, factors, n, velocity ? 0.0 : lists->position_map_period, velocity,
-                      &map).ok()) {
+  const struct {
+    const double* knots;
+    const double* factors;
+    int count;
+    double period;
+    bool nonnegative_knots;
+    LevelMap* map;
+  } maps[] = {
+      {lists->position_map_knots, lists->position_map_factors, lists->position_map_count,
+       lists->position_map_period, false, &p->position_map},
+      {lists->velocity_map_knots, lists->velocity_map_factors, lists->velocity_map_count, 0.0,
+       true, &p->velocity_map},
+      {lists->time_map_knots, lists->time_map_factors, lists->time_map_count, 0.0, true,
+       &p->time_map},
+  };
+  for (const auto& map : maps) {
+    if (map.count > 0 && (!map.knots || !map.factors)) return false;
+    if (!MakeLevelMap(map.knots, map.factors, map.count, map.period, map.nonnegative_knots,
+                      map.map).ok()) {
       return false;
     }
   }
@@ -123,7 +134,7 @@ bool PlayValid(const vf_law_parameters& c) {
 
 extern "C" {
 
-int vf_api_version(void) { return 3; }
+int vf_api_version(void) { return 4; }
 
 int vf_mujoco_header_version(void) { return mjVERSION_HEADER; }
 

@@ -37,7 +37,7 @@ VF_EXPORT int vf_run_law(const vf_law_parameters* params, int n, const double* t
                double z0, double* force_out, double* deflection_out);
 
 // The list-valued parameters (NULL pointers with count 0: off): law gms's elements, and the
-// level maps over the relative position and the speed (friction_law.h, LevelMap).
+// level maps over the relative position, the speed and the time (friction_law.h, LevelMap).
 typedef struct vf_law_lists {
   int gms_count;  // 1 to 16 for law gms (params->law 4), else 0
   const double* gms_stiffness;  // [gms_count] N/m, > 0
@@ -50,6 +50,9 @@ typedef struct vf_law_lists {
   int velocity_map_count;       // 0 to 16
   const double* velocity_map_knots;    // m/s, >= 0, increasing
   const double* velocity_map_factors;  // > -1
+  int time_map_count;           // 0 to 16
+  const double* time_map_knots;        // s (the samples' time), >= 0, increasing
+  const double* time_map_factors;      // > -1
 } vf_law_lists;
 
 // vf_run_law with the list-valued parameters (`lists` may be NULL: none). z0 holds one

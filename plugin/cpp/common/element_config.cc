@@ -1,6 +1,7 @@
 #include "common/element_config.h"
 
 #include <cmath>
+#include <cstring>
 #include <vector>
 
 #include "common/plugin_util.h"
@@ -89,8 +90,10 @@ bool ReadLevelMap(const mjModel* m, int instance, const char* plugin, const char
       return RejectAttribute(plugin, factors_key, check.value, "has a factor <= -1; each must be "
                              "> -1 (the level times 1 + factor stays positive)");
     case ListProblem::kNegativeKnot:
-      return RejectAttribute(plugin, knots_key, check.value, "has a knot < 0; the knots are "
-                             "speeds |v| >= 0");
+      return RejectAttribute(plugin, knots_key, check.value,
+                             std::strcmp(knots_key, kTimeMapKnots) == 0
+                                 ? "has a knot < 0; the knots are times t >= 0 (s)"
+                                 : "has a knot < 0; the knots are speeds |v| >= 0");
     case ListProblem::kOrder:
       return ConfigError("%s: the knots of '%s' must increase%s", plugin, knots_key,
                          period > 0 ? " and lie within one period" : "");

@@ -41,6 +41,8 @@ inline constexpr char kPositionMapFactors[] = "position_map_factors";
 inline constexpr char kPositionMapPeriod[] = "position_map_period";
 inline constexpr char kVelocityMapKnots[] = "velocity_map_knots";
 inline constexpr char kVelocityMapFactors[] = "velocity_map_factors";
+inline constexpr char kTimeMapKnots[] = "time_map_knots";
+inline constexpr char kTimeMapFactors[] = "time_map_factors";
 // the averaged elements' vibration and table (vibrofriction.averaged, .contact_averaged)
 inline constexpr char kVelocityAmplitude[] = "velocity_amplitude";
 inline constexpr char kTableXi[] = "table_xi";
@@ -67,8 +69,8 @@ bool ReadLawParameters(const mjModel* m, int instance, const char* plugin, LawPa
 
 // Reads a level map: the knots and factors lists (both or neither, at most kMaxMapKnots, knots
 // increasing, factors > -1) and, with a period key, the period (>= 0; > 0: periodic, the knots
-// within one period); nonnegative_knots for a map over the speed. Records the error naming the
-// attribute and returns false on a bad value.
+// within one period); nonnegative_knots for a map over the speed or the time. Records the error
+// naming the attribute and returns false on a bad value.
 bool ReadLevelMap(const mjModel* m, int instance, const char* plugin, const char* knots_key,
                   const char* factors_key, const char* period_key, bool nonnegative_knots,
                   LevelMap* out);

@@ -53,6 +53,8 @@ constexpr NamedRange kRanges[] = {
     {"position_map_period", {0.0, 1e6}},    // position_map_period_m
     {"velocity_map_knots", {0.0, 1e3}},     // velocity_map_knots_m_per_s
     {"velocity_map_factors", {0.0, 1e3}},   // velocity_map_factors
+    {"time_map_knots", {0.0, 1e9}},         // time_map_knots_s (each value)
+    {"time_map_factors", {0.0, 1e3}},       // time_map_factors
     {"axis_angle", {0.0, 1e6}},             // rad
     // vibrofriction.motion and the averaged element (params.RigParameters)
     {"frequency", {0.0, 1e7}},              // vibration_frequency_Hz

@@ -40,11 +40,12 @@ struct GmsElements {
 };
 
 // A friction level that varies smoothly along a coordinate (the relative position: a
-// position_map; the sliding speed |v|: a velocity_map): the level is multiplied by
+// position_map; the sliding speed |v|: a velocity_map; the time t: a time_map, the level's
+// drift from heating, run-in or wear): the level is multiplied by
 // max(0, 1 + s(x)), s the cubic spline through (knot_i, factor_i) -- natural (zero curvature at
 // the ends), or periodic when period > 0. Beyond the knots s stays at its end value
-// (constant_ends, a position) or goes on along its end slope (a speed: the map generalises a
-// viscous term). count 0: off.
+// (constant_ends, a position or a time) or goes on along its end slope (a speed: the map
+// generalises a viscous term). count 0: off.
 inline constexpr int kMaxMapKnots = 16;
 struct LevelMap {
   int count = 0;
@@ -77,7 +78,7 @@ enum class ListProblem {
   kWeightSum,     // the gms weights do not sum to 1 (value: their sum)
   kRelaxation,    // the gms relaxation time < 0
   kFactor,        // a map factor <= -1
-  kNegativeKnot,  // a speed map's knot < 0
+  kNegativeKnot,  // a speed or time map's knot < 0
   kPeriod,        // a map's period < 0
   kOrder,         // the map's knots do not increase (or, periodic, leave one period)
 };
@@ -120,13 +121,14 @@ struct LawParameters {
   GmsElements gms;                           // law gms only
   LevelMap position_map;                     // level x factor along the relative position
   LevelMap velocity_map = LevelMap::WithLinearEnds();  // level x factor over the speed |v|
+  LevelMap time_map;                         // level x factor over the time t
 };
 
 // What the law sees at one instant besides its state.
 struct LawInput {
   double velocity = 0.0;      // v_r (m/s)
   double position = 0.0;      // relative position of the body on its support (m)
-  double time = 0.0;          // (s), for the normal-load modulation
+  double time = 0.0;          // (s), for the normal-load modulation and the time map
   double normal_force = 0.0;  // F_N (N) before modulation (config + sensor input)
 };
 
@@ -159,6 +161,7 @@ inline double CoulombLevel(const LawParameters& p, const LawInput& in, double di
     level *= 1.0 + p.ripple * std::sin(2 * kPi * in.position / p.ripple_wavelength + p.ripple_phase);
   }
   if (p.position_map.count) level *= p.position_map.Factor(in.position);
+  if (p.time_map.count) level *= p.time_map.Factor(in.time);
   return level;
 }
 

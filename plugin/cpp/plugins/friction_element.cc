@@ -31,7 +31,7 @@ const char* const kAttributes[] = {
     kStribeckVelocity, kAsymmetry, kRipple, kRippleWavelength, kRipplePhase, kNormalModulation,
     kModulationFrequency, kModulationPhase, kForceOffset, kContactPlay, kSensorLag, kGmsStiffness,
     kGmsWeight, kGmsRelaxationTime, kPositionMapKnots, kPositionMapFactors, kPositionMapPeriod,
-    kVelocityMapKnots, kVelocityMapFactors, kNormalFromCtrl};
+    kVelocityMapKnots, kVelocityMapFactors, kTimeMapKnots, kTimeMapFactors, kNormalFromCtrl};
 
 constexpr char kPlugin[] = "vibrofriction.friction";
 
@@ -140,7 +140,9 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
   if (!ReadLevelMap(m, instance, kPlugin, kPositionMapKnots, kPositionMapFactors,
                     kPositionMapPeriod, /*nonnegative_knots=*/false, &p.position_map) ||
       !ReadLevelMap(m, instance, kPlugin, kVelocityMapKnots, kVelocityMapFactors, nullptr,
-                    /*nonnegative_knots=*/true, &p.velocity_map)) {
+                    /*nonnegative_knots=*/true, &p.velocity_map) ||
+      !ReadLevelMap(m, instance, kPlugin, kTimeMapKnots, kTimeMapFactors, nullptr,
+                    /*nonnegative_knots=*/true, &p.time_map)) {
     return false;
   }
   if (!(p.asymmetry > -1 && p.asymmetry < 1)) {

@@ -9,7 +9,7 @@ import mujoco
 from ._mujoco_plugins import library_path, version_mismatch
 from ..vocabulary import LAW_STRUCT_FIELDS
 
-_API_VERSION = 3
+_API_VERSION = 4
 _lock = threading.Lock()
 _library: ctypes.CDLL | None = None
 
@@ -48,7 +48,9 @@ class _LawLists(ctypes.Structure):
                 ("position_map_count", ctypes.c_int), ("position_map_knots", _DP),
                 ("position_map_factors", _DP), ("position_map_period", ctypes.c_double),
                 ("velocity_map_count", ctypes.c_int), ("velocity_map_knots", _DP),
-                ("velocity_map_factors", _DP)]
+                ("velocity_map_factors", _DP),
+                ("time_map_count", ctypes.c_int), ("time_map_knots", _DP),
+                ("time_map_factors", _DP)]
 
 
 def load() -> ctypes.CDLL:

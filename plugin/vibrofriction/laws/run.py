@@ -8,7 +8,7 @@ the plugin's step order.
 from __future__ import annotations
 
 import ctypes
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -109,20 +109,32 @@ STEADY_TRAVEL_DEFLECTIONS = 1e9
 
 def steady_deflection_m(friction: FrictionParameters, relative_velocity_m_per_s: float, *,
                         normal_force_N: float = PAPER_NORMAL_FORCE_N,
-                        position_m: float | None = None) -> float | tuple[float, ...]:
+                        position_m: float | None = None,
+                        time_s: float = 0.0) -> float | tuple[float, ...]:
     """The deflection z of the law sliding steadily at ``relative_velocity_m_per_s`` (law gms:
     one per element), found by the plugin's own law: a long slide at that velocity (the state
-    a record that starts in motion had when it started). 0 for Coulomb or a body at rest."""
+    a record that starts in motion had when it started). 0 for Coulomb or a body at rest.
+    A time map is held at its factor at ``time_s`` (the slide's own times run far past it)."""
     count = len(friction.gms_stiffness_N_per_m) if friction.law == "gms" else 1
     v = float(relative_velocity_m_per_s)
     if friction.law == "coulomb" or v == 0.0 or normal_force_N <= 0.0:
         return tuple([0.0] * count) if friction.law == "gms" else 0.0
+    if friction.time_map_knots_s:  # the map's factor at time_s (the plugin's) folded into mu
+        probe = FrictionParameters(law="coulomb", friction_coefficient=1.0,
+                                   time_map_knots_s=friction.time_map_knots_s,
+                                   time_map_factors=friction.time_map_factors)
+        factor = float(run_law(probe, [float(time_s)], [1.0], normal_force_N=1.0)
+                       .friction_force_N[0])
+        friction = replace(friction, friction_coefficient=friction.friction_coefficient * factor,
+                           time_map_knots_s=(), time_map_factors=())
     if friction.law == "gms":
         stiffness = min(friction.gms_stiffness_N_per_m)
     else:
         stiffness = friction.contact_stiffness_N_per_m
     level = friction.friction_coefficient * max(1.0, friction.static_ratio) * normal_force_N
     travel_m = STEADY_TRAVEL_DEFLECTIONS * level / stiffness + friction.contact_play_m
+    if travel_m <= 0.0:  # no level and no play: nothing deflects
+        return tuple([0.0] * count) if friction.law == "gms" else 0.0
     t = np.linspace(0.0, travel_m / abs(v), 5)
     position = None if position_m is None else np.full(t.shape, float(position_m))
     run = run_law(friction, t, np.full(t.shape, v), normal_force_N=float(normal_force_N),
@@ -145,7 +157,8 @@ def _c_lists(friction: FrictionParameters) -> tuple[_LawLists, list[np.ndarray]]
     keep = [array(friction.gms_stiffness_N_per_m if gms else ()),
             array(friction.gms_element_weights if gms else ()),
             array(friction.position_map_knots_m), array(friction.position_map_factors),
-            array(friction.velocity_map_knots_m_per_s), array(friction.velocity_map_factors)]
+            array(friction.velocity_map_knots_m_per_s), array(friction.velocity_map_factors),
+            array(friction.time_map_knots_s), array(friction.time_map_factors)]
     lists = _LawLists(
         gms_count=len(keep[0]), gms_stiffness=_ptr(keep[0]), gms_weight=_ptr(keep[1]),
         gms_relaxation_time=float(friction.gms_relaxation_time_s),
@@ -153,7 +166,9 @@ def _c_lists(friction: FrictionParameters) -> tuple[_LawLists, list[np.ndarray]]
         position_map_factors=_ptr(keep[3]),
         position_map_period=float(friction.position_map_period_m),
         velocity_map_count=len(keep[4]), velocity_map_knots=_ptr(keep[4]),
-        velocity_map_factors=_ptr(keep[5]))
+        velocity_map_factors=_ptr(keep[5]),
+        time_map_count=len(keep[6]), time_map_knots=_ptr(keep[6]),
+        time_map_factors=_ptr(keep[7]))
     return lists, keep
 
 

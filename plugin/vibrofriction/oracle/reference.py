@@ -16,8 +16,9 @@ sliding. Friction level with the effects, for the direction ``s`` of v_r::
     F_c = mu F_N (1 + m sin(2 pi f_m t + phi_m)) (1 + a s) (1 + r sin(2 pi (x - u)/lambda + phi))
     F_s = static_ratio F_c,   g(v) = F_c + (F_s - F_c) exp(-(v/v_s)^2)
 
-times max(0, 1 + s(x - u)) with a position map and max(0, 1 + s(|v_r|)) with a velocity map
-(scipy's CubicSpline: natural, or periodic; beyond the knots constant, or linear for the speed).
+times max(0, 1 + s(x - u)) with a position map, max(0, 1 + s(|v_r|)) with a velocity map and
+max(0, 1 + s(t)) with a time map (scipy's CubicSpline: natural, or periodic; beyond the knots
+constant, or linear for the speed).
 
 Laws (s0 = k_t, s1 bristle damping, s2 viscous; all integrated with LSODA):
 
@@ -133,7 +134,8 @@ def simulate_reference(rig: RigParameters, friction: FrictionParameters, duratio
                              f"lugre), not for the hybrid {friction.law} reference")
     if friction.law == "gms" and (friction.static_ratio != 1 or friction.normal_force_modulation
                                   or friction.position_ripple or friction.position_map_knots_m
-                                  or friction.velocity_map_knots_m_per_s):
+                                  or friction.velocity_map_knots_m_per_s
+                                  or friction.time_map_knots_s):
         raise ParameterError("the gms reference covers constant levels: static_ratio 1, no "
                              "normal_force_modulation, position_ripple or level maps")
     if level_factor is not None and friction.law in ("coulomb", "gms"):
@@ -246,9 +248,11 @@ class _Contact:
                                        p.position_map_period_m)
         self.velocity_map = _level_map(p.velocity_map_knots_m_per_s, p.velocity_map_factors,
                                        0.0, linear_ends=True)
+        self.time_map = _level_map(p.time_map_knots_s, p.time_map_factors, 0.0)
 
     def coulomb_level(self, t: float, x_rel: float, direction: float) -> float:
-        """F_c (N) with normal-load modulation, direction asymmetry and position ripple."""
+        """F_c (N) with normal-load modulation, direction asymmetry, position ripple and the
+        position and time maps."""
         level = self.bound_N
         if self.modulation:
             level *= 1 + self.modulation * math.sin(self.modulation_w * t + self.modulation_phase)
@@ -260,6 +264,8 @@ class _Contact:
             level *= 1 + self.ripple * math.sin(self.ripple_k_per_m * x_rel + self.ripple_phase)
         if self.position_map:
             level *= max(0.0, 1.0 + self.position_map(x_rel))
+        if self.time_map:
+            level *= max(0.0, 1.0 + self.time_map(t))
         return level
 
     def state_level(self, t: float, x_rel: float, v: float) -> float:
