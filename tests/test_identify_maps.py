@@ -66,3 +66,31 @@ def test_a_hidden_level_map_is_the_one_selection_and_its_curve_comes_back(effect
     # the map's level along the record within 2 % of mu: a spline on other knots, fitted
     # through noise, and the mean level shared with mu
     np.testing.assert_allclose(got, true, rtol=0, atol=0.02 * truth)
+
+
+def _drift_records():
+    """A friction level rising 12 % over the record (heating, run-in), put in by the oracle's
+    level factor: nothing of the vocabulary's parameters makes it."""
+    duration_s = 0.05
+    out = []
+    for held_out in (False, True):
+        scenario = replace(synthetic.Scenario(), duration_s=duration_s,
+                           seed=2 if held_out else 1,
+                           level_factor=lambda t, x, v: 1.0 + 0.12 * t / duration_s)
+        if held_out:  # pulled at another speed
+            scenario = replace(scenario, rig=replace(scenario.rig, drive_velocity_m_per_s=0.7e-3))
+        out.append(synthetic.generate(scenario, name=f"drift_{'heldout' if held_out else 'train'}"))
+    return out
+
+
+def test_a_drift_of_the_level_in_time_is_traced_to_a_time_map():
+    train, held = _drift_records()
+    result = identify(train, [held], law="lugre")
+    assert result.selected[:1] == ["time_map"]
+    # the held-out error falls by far more than a quarter
+    assert result.final.validation[0].relerr_pct < 0.5 * result.baseline.validation[0].relerr_pct
+    fitted = result.final.model.friction_parameters(result.final.values)
+    t = np.linspace(0.005, 0.045, 30)  # (the level's rise from the start: within 2 % of mu)
+    truth = synthetic.BASE_FRICTION.friction_coefficient * (1.0 + 0.12 * t / 0.05)
+    got = _level(fitted.friction_coefficient, fitted.time_map_knots_s, fitted.time_map_factors, t)
+    np.testing.assert_allclose(got, truth, rtol=0, atol=0.02 * truth[0])

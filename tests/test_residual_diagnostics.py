@@ -209,7 +209,14 @@ def test_identification_says_a_clean_record_is_adequate_and_a_drift_is_not(tmp_p
     assert lines[verdict].startswith("**Model adequate:**")
     assert lines[verdict - 2].startswith("- support:")  # right after the header bullets
 
-    rising = identify(_record(0.05), law="dahl")
+    # a drift of the level in time: traced to a time map, after which the model is adequate
+    traced = identify(_record(0.05), law="dahl")
+    assert traced.selected[:1] == ["time_map"]
+    assert for_identification(traced).model_adequate
+    # with no effect allowed to join (each must cut the error by 90 %; the time map cuts 40 %),
+    # the law alone is called inadequate, its residual following time
+    rising = identify(_record(0.05), law="dahl", min_improvement=0.9)
+    assert rising.selected == []
     d = for_identification(rising)
     assert not d.model_adequate and d.leading_regressor == "time"
     assert d.regressors[0].name == "time" and d.regressors[0].p_value < 1e-6

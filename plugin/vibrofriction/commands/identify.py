@@ -24,8 +24,9 @@ from ..identify.report import report_json, rig_replay, write_report
 
 HELP = ("fit a friction law to a measured record (dataset format), trace the residual to "
         "missing effects (viscous, stribeck, asymmetry, position_ripple, "
-        "normal_force_modulation, drive_damping, sensor_lag, force_offset; by simulation also "
-        "backlash; on the inverse path also position_map, velocity_map), select those the "
+        "normal_force_modulation, drive_damping, sensor_lag, force_offset, and the free-form "
+        "position_map, velocity_map, time_map; by simulation also backlash; on the inverse "
+        "path also contact_play), select those the "
         "data justify, and write report.json, report.md, each record's measured, predicted "
         "and residual series and figures")
 

@@ -3,7 +3,10 @@
 Each round the back end evaluates every remaining candidate effect against the current model
 (the inverse path fits them all; the simulation path screens them linearized, fits the
 promising ones and converges the leaders); the driver picks the justified candidate with the
-lowest dBIC, the back end accepts it (the simulation path refits it to convergence where the
+lowest dBIC -- unless held-out records clearly prefer another justified one (its held-out RMSE
+at least ``HELD_OUT_MARGIN`` below the dBIC-best's: two effects that explain the training record
+alike, as a drift in time and a map along a travel that grows with time, are told apart by a
+record that moves otherwise) -- the back end accepts it (the simulation path refits it to convergence where the
 round had not) and takes its backward step (the simulation path drops an earlier effect the
 same test no longer justifies; the inverse path has none). Rounds end when no candidate is
 justified or none remains; a last backward step follows (the simulation path's on its last
@@ -12,8 +15,13 @@ choice). What "justified" means, and the fits, stay in the back ends: ``selectio
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Callable, Generic, Protocol, Sequence, TypeVar
+
+# A justified candidate whose held-out RMSE is this fraction or more below the dBIC-best's
+# is chosen instead (the held-out records are the direct measure of prediction).
+HELD_OUT_MARGIN = 0.10
 
 F = TypeVar("F")  # a fitted model
 C = TypeVar("C", bound="Judged")  # a judged candidate
@@ -31,6 +39,9 @@ class Judged(Protocol):
 
     @property
     def delta_bic(self) -> float: ...
+
+    @property
+    def validation_log_ratio(self) -> float | None: ...  # mean ln(RMSE with / without)
 
     @property
     def fit(self): ...  # the current model plus the effect (or the current model, unfitted)
@@ -89,13 +100,13 @@ def select(back_end: BackEnd[C, F], start: F, effects: Sequence[str],
         justified = [c for c in evaluated if c.justified]
         if not justified:
             break
-        best = min(justified, key=lambda c: c.delta_bic)
+        best, why = _choose(justified)
         selected.append(best.effect)
         remaining.remove(best.effect)
         accepted = back_end.accept(best, current, index)
         candidates[best.effect] = accepted
         current = accepted.fit
-        say(f"round {index}: selected {best.effect}{back_end.selected_note(accepted)}")
+        say(f"round {index}: selected {best.effect}{back_end.selected_note(accepted)}{why}")
         # (an effect dropped is not a candidate again: no cycles)
         current = back_end.backward_step(current, selected, index, final=False)
     current = back_end.backward_step(current, selected, len(rounds), final=True)
@@ -103,4 +114,18 @@ def select(back_end: BackEnd[C, F], start: F, effects: Sequence[str],
     return Selection(final=current, candidates=candidates, rounds=rounds, selected=selected)
 
 
-__all__ = ["select", "Selection", "BackEnd", "Judged"]
+def _choose(justified: Sequence[C]) -> tuple[C, str]:
+    """The justified candidate the round selects, and why when not the dBIC-best."""
+    best = min(justified, key=lambda c: c.delta_bic)
+    if best.validation_log_ratio is None:
+        return best, ""
+    held = [c for c in justified if c.validation_log_ratio is not None]
+    clearer = min(held, key=lambda c: c.validation_log_ratio)
+    gain = 1.0 - math.exp(clearer.validation_log_ratio - best.validation_log_ratio)
+    if clearer is best or gain < HELD_OUT_MARGIN:
+        return best, ""
+    return clearer, (f" (held out: its RMSE {100 * gain:.0f} % below that of {best.effect}, "
+                     "the training record's first choice)")
+
+
+__all__ = ["HELD_OUT_MARGIN", "select", "Selection", "BackEnd", "Judged"]

@@ -109,7 +109,7 @@ class Problem:
 
 def _value_name(internal: str) -> str:
     """The reported value an internal coordinate moves (a map's free factor c_i: factor_i)."""
-    for prefix in ("position_map_c", "velocity_map_c"):
+    for prefix in ("position_map_c", "velocity_map_c", "time_map_c"):
         if internal.startswith(prefix):
             return f"{prefix[:-1]}factor_{internal[len(prefix):]}"
     return internal

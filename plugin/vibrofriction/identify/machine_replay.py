@@ -45,7 +45,8 @@ from ..vocabulary import FRICTION_TERMS
 # The friction keys a fitted law must not inherit from the scene: the lists (maps, gms
 # elements) and the values that only shape them.
 _LAW_LIST_KEYS = {t.mjcf_key for t in FRICTION_TERMS
-                  if t.is_list or t.shapes in ("position_map_factors", "velocity_map_factors")
+                  if t.is_list or t.shapes in ("position_map_factors", "velocity_map_factors",
+                                                     "time_map_factors")
                   or t.laws == ("gms",)}
 
 

@@ -29,10 +29,10 @@ from .record import Record
 # The identification vocabulary (docs/interfaces.md), in the order candidates are listed.
 EFFECTS = ("viscous", "stribeck", "asymmetry", "position_ripple", "normal_force_modulation",
            "drive_damping", "sensor_lag", "force_offset")
-# Effects beyond the vocabulary that the inverse path traces (issue 14): the friction level
-# as a spline along the travel and over the speed. Their shapes are free, so they compete with
-# the vocabulary's narrower forms on the information criterion.
-MAP_EFFECTS = ("position_map", "velocity_map")
+# Free-form effects beyond the vocabulary's narrow forms: the friction level as a spline along
+# the travel, over the speed, and over time (a drift: heating, run-in, wear). Their shapes are
+# free, so they compete with the vocabulary's narrower forms on the information criterion.
+MAP_EFFECTS = ("position_map", "velocity_map", "time_map")
 # A play in the contact before the bristles (FrictionParameters.contact_play_m): after each
 # reversal the force falls to 0 and stays there across the play before the contact loads
 # again on its other face. Traced on the inverse path, where the measured displacement drives
@@ -43,12 +43,15 @@ INVERSE_EFFECTS = EFFECTS + MAP_EFFECTS + CONTACT_EFFECTS
 # between the drive and the slider (a dead band of the drive spring). The inverse model takes
 # the measured drive force as it is, so a play before the dynamometer does not enter it.
 RIG_EFFECTS = ("backlash",)
-SIMULATION_EFFECTS = EFFECTS + RIG_EFFECTS
+SIMULATION_EFFECTS = EFFECTS + MAP_EFFECTS + RIG_EFFECTS
 # Knots of a fitted map: evenly over the record's relative position (its range) and over
 # its speeds (0 to the 99th percentile of |v|); the factors sum to 0, so the map cannot trade
 # with the friction coefficient.
 POSITION_MAP_KNOTS = 8
 VELOCITY_MAP_KNOTS = 6
+# a drift is slow: a natural cubic spline through 4 knots over the record (a low-order curve
+# that a vibration or a stick-slip cycle cannot imitate)
+TIME_MAP_KNOTS = 4
 MAP_FACTOR_BOUND = 0.9  # |factor| at a knot: the level stays within 0.1 and 1.9 times its mean
 
 # Law parameters fitted in the baseline, per law (the effect fields are not law parameters).
@@ -123,6 +126,9 @@ class Scales:
     # the record's relative-position range and top speed (the maps' knots)
     position_range_m: tuple[float, float] = (0.0, 1e-3)
     top_speed_m_per_s: float = 1e-3
+    # the times a time map spans, in the time base of the model that runs it (the inverse
+    # path: the record's own times; the simulation path: from 0 at the first sample)
+    time_range_s: tuple[float, float] = (0.0, 1.0)
 
     @classmethod
     def of(cls, record: Record, friction_level_N: float) -> "Scales":
@@ -134,10 +140,15 @@ class Scales:
         return cls(force_N=max(friction_level_N, 1e-9), velocity_m_per_s=v,
                    normal_force_N=float(np.median(record.normal_force_N)) or 1.0,
                    dt_s=dt, travel_m=travel, position_range_m=(float(x.min()), float(x.max())),
-                   top_speed_m_per_s=top)
+                   top_speed_m_per_s=top,
+                   time_range_s=(float(record.time_s[0]), float(record.time_s[-1])))
 
     def map_knots(self, effect: str) -> tuple[float, ...]:
-        """The knots of a fitted position or velocity map."""
+        """The knots of a fitted position, velocity or time map."""
+        if effect == "time_map":
+            low, high = self.time_range_s
+            return tuple(np.linspace(low, high if high > low else low + 1.0,
+                                     TIME_MAP_KNOTS).tolist())
         if effect == "position_map":
             low, high = self.position_range_m
             return tuple(np.linspace(low, high if high > low else low + self.travel_m,
@@ -194,7 +205,7 @@ def parameter_table(law: str, effects: Sequence[str], fit_mass: bool,
         "initial_velocity_m_per_s": Param("initial_velocity_m_per_s", -1e3 * v, 1e3 * v, v),
         # a map's free factors (the last is minus their sum, held within the same bound)
         **{name: Param(name, -MAP_FACTOR_BOUND, MAP_FACTOR_BOUND, 0.1)
-           for name in (*EFFECT_INTERNALS["position_map"], *EFFECT_INTERNALS["velocity_map"])},
+           for effect in MAP_EFFECTS for name in EFFECT_INTERNALS[effect]},
     }
     # Within the vocabulary's limits (params.LIMITS): a fit never proposes a value the
     # plugin or the parameter check would refuse.
@@ -232,6 +243,7 @@ EFFECT_INTERNALS: dict[str, tuple[str, ...]] = {
     "contact_play": ("contact_play_m",),
     "position_map": tuple(f"position_map_c{i}" for i in range(1, POSITION_MAP_KNOTS)),
     "velocity_map": tuple(f"velocity_map_c{i}" for i in range(1, VELOCITY_MAP_KNOTS)),
+    "time_map": tuple(f"time_map_c{i}" for i in range(1, TIME_MAP_KNOTS)),
 }
 # Physical parameters each effect sets (vocabulary names: FrictionParameters / RigParameters).
 EFFECT_FIELDS: dict[str, tuple[str, ...]] = {
@@ -250,6 +262,7 @@ EFFECT_FIELDS: dict[str, tuple[str, ...]] = {
     # velocity_map_factors, with the knots the model holds)
     "position_map": tuple(f"position_map_factor_{i}" for i in range(1, POSITION_MAP_KNOTS + 1)),
     "velocity_map": tuple(f"velocity_map_factor_{i}" for i in range(1, VELOCITY_MAP_KNOTS + 1)),
+    "time_map": tuple(f"time_map_factor_{i}" for i in range(1, TIME_MAP_KNOTS + 1)),
 }
 
 
@@ -278,6 +291,7 @@ class Model:
     # the knots of the fitted maps (Scales.map_knots), empty when the map is not fitted
     position_map_knots_m: tuple[float, ...] = ()
     velocity_map_knots_m_per_s: tuple[float, ...] = ()
+    time_map_knots_s: tuple[float, ...] = ()
 
     @classmethod
     def build(cls, law: str, effects: Sequence[str], fit_mass: bool, scales: Scales,
@@ -293,7 +307,9 @@ class Model:
                    position_map_knots_m=scales.map_knots("position_map")
                    if "position_map" in effects else (),
                    velocity_map_knots_m_per_s=scales.map_knots("velocity_map")
-                   if "velocity_map" in effects else ())
+                   if "velocity_map" in effects else (),
+                   time_map_knots_s=scales.map_knots("time_map")
+                   if "time_map" in effects else ())
 
     @property
     def names(self) -> list[str]:
@@ -338,7 +354,7 @@ class Model:
         raw = self.internal_values(q)
         out = {k: v for k, v in raw.items()
                if k not in ("ripple_cos", "ripple_sin", "modulation_cos", "modulation_sin")
-               and not k.startswith(("position_map_c", "velocity_map_c"))}
+               and not k.startswith(tuple(f"{e}_c" for e in MAP_EFFECTS))}
         for effect in MAP_EFFECTS:
             free = [raw[n] for n in EFFECT_INTERNALS[effect] if n in raw]
             if free:  # the last factor closes the sum to 0, within the factors' range (> -1)
@@ -373,6 +389,9 @@ class Model:
             fields["velocity_map_knots_m_per_s"] = self.velocity_map_knots_m_per_s
             fields["velocity_map_factors"] = tuple(values[n]
                                                    for n in EFFECT_FIELDS["velocity_map"])
+        if self.time_map_knots_s:
+            fields["time_map_knots_s"] = self.time_map_knots_s
+            fields["time_map_factors"] = tuple(values[n] for n in EFFECT_FIELDS["time_map"])
         if self.law == "gms":
             fields["gms_stiffness_N_per_m"], fields["gms_weights"] = gms_elements(
                 values.get("contact_stiffness_N_per_m", self.base.contact_stiffness_N_per_m),
@@ -403,7 +422,8 @@ class Model:
         if record.starts_in_motion:  # sliding when the record starts: the steady state there
             z0 = steady_deflection_m(
                 friction, record.grid_velocity_m_per_s[0], normal_force_N=float(normal[0]),
-                position_m=None if position is None else float(position[0]))
+                position_m=None if position is None else float(position[0]),
+                time_s=float(record.grid_time_s[0]))
         run = run_law(friction, record.grid_time_s, record.grid_velocity_m_per_s,
                       normal_force_N=normal, position_m=position, initial_deflection_m=z0)
         lag = values.get("sensor_lag_s", 0.0)

@@ -510,7 +510,7 @@ def _exposing_regressor(effect: str, analysis: ResidualAnalysis) -> str:
         "asymmetry": "relative_velocity", "position_ripple": "position",
         "normal_force_modulation": "support_phase", "drive_damping": "support_phase",
         "sensor_lag": "support_phase", "force_offset": "relative_velocity",
-        "position_map": "position", "velocity_map": "relative_velocity",
+        "position_map": "position", "velocity_map": "relative_velocity", "time_map": "time",
         "contact_play": "time_since_reversal",
     }[effect]
     if preferred in analysis.binned:

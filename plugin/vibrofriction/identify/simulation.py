@@ -135,6 +135,16 @@ def _travel_m(replay) -> float:
     return float(np.ptp(replay.measured.get("position_m", [0.0]))) or 1e-3
 
 
+def _position_range_m(replay) -> tuple[float, float]:
+    """The range of the slider's measured position relative to the support (a position map's
+    knots); without a measured position, the drive's travel over the record."""
+    position = replay.measured.get("position_m")
+    if position is None:
+        travel = abs(replay.rig.drive_velocity_m_per_s) * float(np.ptp(replay.time_s))
+        return 0.0, travel or 1e-3
+    return float(np.min(position)), float(np.max(position))
+
+
 def deflection_scan_m(travel_m: float) -> np.ndarray:
     """The scanned characteristic deflections for a record with this travel."""
     step = float(np.log10(_DEFLECTION_SCAN_M[1] / _DEFLECTION_SCAN_M[0]))
@@ -1062,10 +1072,16 @@ def _start(problem: SimulationProblem, law: str, fit_mass: bool,
     normal = replay.rig.normal_force_N
     level, levels = replay.start_levels(_LEVEL_SCAN)
     dt = float(np.median(np.diff(replay.time_s)))
+    sliding = replay.sliding_speeds_m_per_s
     scales = Scales(force_N=level, velocity_m_per_s=replay.velocity_scale_m_per_s,
                     normal_force_N=normal, dt_s=dt,
                     travel_m=_travel_m(replay),
-                    sliding_speeds_m_per_s=replay.sliding_speeds_m_per_s)
+                    sliding_speeds_m_per_s=sliding,
+                    position_range_m=_position_range_m(replay),
+                    # (the maps' knots: the top of the estimated sliding speeds; the
+                    # replay's MuJoCo time, 0 at the first sample)
+                    top_speed_m_per_s=max((*sliding, replay.velocity_scale_m_per_s)),
+                    time_range_s=(0.0, float(replay.time_s[-1] - replay.time_s[0])))
     model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law),
                         problem.state, problem.scene)
 

@@ -17,7 +17,7 @@ from ..params import RigParameters
 from ..provenance import json_text
 from .identifiability import simulation_diagnostics
 from . import residual_diagnostics
-from .model import EFFECT_FIELDS, SIMULATION_EFFECTS
+from .model import EFFECT_FIELDS, MAP_EFFECTS, SIMULATION_EFFECTS
 from .report import write_folder
 from .series import listing as series_listing, simulation_series, write_series
 from .simulation import MIN_SLIPS, SimFit, SimIdentification
@@ -164,10 +164,16 @@ def set_line(result: SimIdentification) -> str:
     if result.train.lagged_sensor == "dynamometer":
         # the lag is the rig dynamometer's (its sensor's time_constant), not the element's
         names = [n for n in names if n != "sensor_lag_s"]
+    for effect in MAP_EFFECTS:  # a map: its knots and factors, as lists
+        if effect in result.final.model.effects:
+            names += [n for n in p if n.startswith(f"{effect}_")]
     parts = [f"--law {result.law}"]
     for n in dict.fromkeys(names):
-        if p.get(n) is not None:
-            parts.append(f"--set {n}={p[n]:.9g}")
+        value = p.get(n)
+        if isinstance(value, (list, tuple)):
+            parts.append(f"--set {n}={','.join(f'{x:.9g}' for x in value)}")
+        elif value is not None:
+            parts.append(f"--set {n}={value:.9g}")
     return " ".join(parts)
 
 
