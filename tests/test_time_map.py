@@ -37,7 +37,7 @@ def test_the_time_map_is_the_cubic_spline_at_the_samples_time():
     t = np.linspace(0.9, 2.2, 2601)
     run = laws.run_law(friction, t, np.full(t.size, 1e-2), normal_force_N=10.0)
     s = CubicSpline(knots, factors, bc_type="natural")(np.clip(t, knots[0], knots[-1]))
-    np.testing.assert_allclose(run.friction_force_N, LEVEL_N * (1 + s), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(run.friction_force_N, LEVEL_N * (1 + s), rtol=0, atol=1e-10)
 
 
 def _mean_friction_N(time_s, drive_N, velocity_m_per_s, start_s, end_s) -> float:
@@ -97,9 +97,9 @@ def test_the_c_api_with_a_time_map_equals_the_plugin(law):
     law_run = laws.run_law(friction, at_mid_step, run.relative_velocity_m_per_s,
                            normal_force_N=RIG.normal_force_N)
     np.testing.assert_allclose(law_run.friction_force_N, run.friction_force_N, rtol=0,
-                               atol=1e-12 * level)
+                               atol=1e-10 * level)
     np.testing.assert_allclose(law_run.deflection_m, run.deflection_m, rtol=0,
-                               atol=1e-12 * level / friction.contact_stiffness_N_per_m)
+                               atol=1e-10 * level / friction.contact_stiffness_N_per_m)
     # the map acts and its time matters: without it, or read at t_i, the runs differ
     unmapped = laws.run_law(dataclasses.replace(friction, time_map_knots_s=(),
                                                 time_map_factors=()),

@@ -3,10 +3,11 @@
 Each round the back end evaluates every remaining candidate effect against the current model
 (the inverse path fits them all; the simulation path screens them linearized, fits the
 promising ones and converges the leaders); the driver picks the justified candidate with the
-lowest dBIC -- unless held-out records clearly prefer another justified one (its held-out RMSE
-at least ``HELD_OUT_MARGIN`` below the dBIC-best's: two effects that explain the training record
-alike, as a drift in time and a map along a travel that grows with time, are told apart by a
-record that moves otherwise) -- the back end accepts it (the simulation path refits it to convergence where the
+lowest dBIC -- unless another justified one explains the training record alike (at least
+``ALIKE_FRACTION`` of the best's dBIC) and held-out records clearly prefer it (its held-out RMSE
+at least ``HELD_OUT_MARGIN`` below the dBIC-best's): a drift in time and a map along a travel
+that grows with time are told apart by a record that moves otherwise; the held-out records then
+took part in the choice, as they do in every candidate's guard -- the back end accepts it (the simulation path refits it to convergence where the
 round had not) and takes its backward step (the simulation path drops an earlier effect the
 same test no longer justifies; the inverse path has none). Rounds end when no candidate is
 justified or none remains; a last backward step follows (the simulation path's on its last
@@ -22,6 +23,8 @@ from typing import Callable, Generic, Protocol, Sequence, TypeVar
 # A justified candidate whose held-out RMSE is this fraction or more below the dBIC-best's
 # is chosen instead (the held-out records are the direct measure of prediction).
 HELD_OUT_MARGIN = 0.10
+# ... among the candidates whose dBIC is at least this fraction of the dBIC-best's (both < 0)
+ALIKE_FRACTION = 0.5
 
 F = TypeVar("F")  # a fitted model
 C = TypeVar("C", bound="Judged")  # a judged candidate
@@ -119,7 +122,8 @@ def _choose(justified: Sequence[C]) -> tuple[C, str]:
     best = min(justified, key=lambda c: c.delta_bic)
     if best.validation_log_ratio is None:
         return best, ""
-    held = [c for c in justified if c.validation_log_ratio is not None]
+    held = [c for c in justified if c.validation_log_ratio is not None
+            and c.delta_bic <= ALIKE_FRACTION * best.delta_bic]
     clearer = min(held, key=lambda c: c.validation_log_ratio)
     gain = 1.0 - math.exp(clearer.validation_log_ratio - best.validation_log_ratio)
     if clearer is best or gain < HELD_OUT_MARGIN:
@@ -128,4 +132,4 @@ def _choose(justified: Sequence[C]) -> tuple[C, str]:
                      "the training record's first choice)")
 
 
-__all__ = ["HELD_OUT_MARGIN", "select", "Selection", "BackEnd", "Judged"]
+__all__ = ["HELD_OUT_MARGIN", "ALIKE_FRACTION", "select", "Selection", "BackEnd", "Judged"]

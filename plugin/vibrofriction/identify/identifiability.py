@@ -20,7 +20,8 @@ Identifiability of each fitted value of the final model. It is *not informed* wh
 
 Law parameters biased by a missing effect: a law parameter of the baseline (the law alone, or
 with the declared effects) whose value moves by more than ``MOVED_STANDARD_ERRORS`` of the
-final fit's standard error once the selection adds effects. The baseline's value then carried
+final fit's standard error, and by more than ``MOVED_FRACTION`` of its value, once the
+selection adds effects. The baseline's value then carried
 the effect it lacked (a softer contact standing in for a play, a level standing in for a speed
 curve): the final value is the estimate, the baseline's is biased.
 
@@ -54,7 +55,10 @@ OUTLIER_ROBUST_SD = 8.0
 # Every outlier also stands this far out of the bulk, so the largest sample of a short record
 # of white noise (100 samples: about 10 % of the sum of squares) is not taken for a glitch.
 SHARE_MIN_ROBUST_SD = 5.0
-MOVED_STANDARD_ERRORS = 1.0  # a law parameter's move, baseline -> final, that flags it
+# A law parameter's move, baseline -> final, that flags it: beyond this many final standard
+# errors and this fraction of its value (a refit's own wobble, 1 SE, is not a bias)
+MOVED_STANDARD_ERRORS = 3.0
+MOVED_FRACTION = 0.01
 ISOLATION = 0.5  # a lone glitch's neighbours deviate by less than this fraction of it
 MAX_LISTED = 5  # outliers listed per record and channel (the largest shares)
 # sd of a normal distribution over its median absolute deviation
@@ -185,7 +189,8 @@ def moved_parameters(law: str, baseline: Mapping[str, float], final: Mapping[str
             continue
         moved = Moved(name, float(baseline[name]), float(final[name]), float(se),
                       tuple(selected))
-        if moved.standard_errors > MOVED_STANDARD_ERRORS:
+        if moved.standard_errors > MOVED_STANDARD_ERRORS and \
+                abs(moved.final - moved.baseline) > MOVED_FRACTION * abs(moved.final):
             out.append(moved)
     return out
 

@@ -126,8 +126,8 @@ class Scales:
     # the record's relative-position range and top speed (the maps' knots)
     position_range_m: tuple[float, float] = (0.0, 1e-3)
     top_speed_m_per_s: float = 1e-3
-    # the times a time map spans, in the time base of the model that runs it (the inverse
-    # path: the record's own times; the simulation path: from 0 at the first sample)
+    # the times a time map spans: from 0 at each record's first sample, on both paths (the
+    # replayed scene's clock; a held-out record's map starts with it)
     time_range_s: tuple[float, float] = (0.0, 1.0)
 
     @classmethod
@@ -141,7 +141,7 @@ class Scales:
                    normal_force_N=float(np.median(record.normal_force_N)) or 1.0,
                    dt_s=dt, travel_m=travel, position_range_m=(float(x.min()), float(x.max())),
                    top_speed_m_per_s=top,
-                   time_range_s=(float(record.time_s[0]), float(record.time_s[-1])))
+                   time_range_s=(0.0, float(record.time_s[-1] - record.time_s[0])))
 
     def map_knots(self, effect: str) -> tuple[float, ...]:
         """The knots of a fitted position, velocity or time map."""
@@ -423,8 +423,11 @@ class Model:
             z0 = steady_deflection_m(
                 friction, record.grid_velocity_m_per_s[0], normal_force_N=float(normal[0]),
                 position_m=None if position is None else float(position[0]),
-                time_s=float(record.grid_time_s[0]))
-        run = run_law(friction, record.grid_time_s, record.grid_velocity_m_per_s,
+                time_s=0.0)
+        # (the law's clock from 0 at the record's first sample: a time map's, as by
+        # simulation; nothing else in the law reads the time here)
+        run = run_law(friction, record.grid_time_s - record.time_s[0],
+                      record.grid_velocity_m_per_s,
                       normal_force_N=normal, position_m=position, initial_deflection_m=z0)
         lag = values.get("sensor_lag_s", 0.0)
         if lag > 0 and record.stride > 1 and record.target == "friction":

@@ -83,9 +83,9 @@ CLOSE_SHARE = 0.9
 
 # What a missing effect that follows each regressor may be (report.md's verdict).
 HINTS = {
-    "time": "a drift?",
-    "relative_velocity": "a velocity dependence the law lacks?",
-    "relative_position": "friction that varies along the travel?",
+    "time": "a drift? (--with time_map)",
+    "relative_velocity": "a velocity dependence the law lacks? (--with velocity_map)",
+    "relative_position": "friction that varies along the travel? (--with position_map)",
     "support_phase": "something locked to the vibration's phase?",
     "time_since_reversal": "a transient after each reversal: a play, a ringing?",
     "drive_force": "a dependence on the load: a sensor's nonlinearity?",

@@ -140,8 +140,8 @@ def _position_range_m(replay) -> tuple[float, float]:
     knots); without a measured position, the drive's travel over the record."""
     position = replay.measured.get("position_m")
     if position is None:
-        travel = abs(replay.rig.drive_velocity_m_per_s) * float(np.ptp(replay.time_s))
-        return 0.0, travel or 1e-3
+        travel = replay.rig.drive_velocity_m_per_s * float(np.ptp(replay.time_s))
+        return (min(0.0, travel), max(0.0, travel)) if travel else (0.0, 1e-3)
     return float(np.min(position)), float(np.max(position))
 
 
