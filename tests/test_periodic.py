@@ -104,6 +104,27 @@ def test_stick_slip_falls_back_to_the_transient_and_says_so():
     assert math.isnan(strict.mean_drive_force_N)  # no number passed off as the answer
 
 
+def test_forcing_that_is_not_periodic_runs_the_transient_and_says_why():
+    """A friction level that drifts in time (a time map) has no periodic orbit: auto runs the
+    transient (the orbit's mean would be a wrong number called converged), periodic flags it,
+    and the command's JSON writes the unconverged point's numbers as null, not NaN."""
+    import json
+
+    from vibrofriction.provenance import json_text
+    rig = _at(PAPER, 1.5)
+    friction = replace(default_friction("dahl", rig), time_map_knots_s=(0.0, 0.2),
+                       time_map_factors=(0.0, 0.3))
+    assert "time map" in P.not_periodic_reason(rig, friction)
+    assert P.not_periodic_reason(rig, default_friction("dahl", rig)) is None
+    auto = run_cases([(rig, friction)], method="auto", max_duration_s=0.2)[0]
+    assert auto.convergence.method == "transient"
+    assert auto.convergence.note.startswith("not periodic: a time map")
+    with pytest.warns(rig_module.UnconvergedWarning, match="not periodic"):
+        result = sweep(rig, friction, [0.75e-3], progress=False, method="periodic")
+    point = json.loads(json_text(result))["points"][0]
+    assert point["converged"] is False and point["mean_drive_force_N"] is None
+
+
 def test_an_unconverged_sweep_point_warns_in_the_python_api():
     rig = replace(PAPER, vibration_velocity_amplitude_m_per_s=0.0)
     friction = replace(default_friction("coulomb", rig), static_ratio=1.5)

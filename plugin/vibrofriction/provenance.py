@@ -3,6 +3,7 @@ the versions of vibrofriction and MuJoCo that made it."""
 from __future__ import annotations
 
 import json
+import math
 from typing import Any
 
 # Raised when a key of an existing JSON output changes meaning or goes away (new keys do not).
@@ -25,5 +26,16 @@ def stamped(payload: Any) -> Any:
 
 
 def json_text(payload: Any) -> str:
-    """The text of a JSON output file: stamped, indented, one trailing newline."""
-    return json.dumps(stamped(payload), indent=2) + "\n"
+    """The text of a JSON output file: stamped, indented, one trailing newline; a non-finite
+    number (an unconverged point's NaN) is written null, which every JSON reader takes."""
+    return json.dumps(_finite_or_null(stamped(payload)), indent=2, allow_nan=False) + "\n"
+
+
+def _finite_or_null(value: Any) -> Any:
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _finite_or_null(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite_or_null(v) for v in value]
+    return value

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import threading
 import time
 from dataclasses import dataclass, field, replace
 from typing import Callable, Sequence
@@ -149,20 +150,52 @@ class PeriodicOrbit:
         return float(np.max(np.abs(self.multipliers))) if self.multipliers.size else 0.0
 
 
+def _ignore_warning(message: str) -> None:
+    del message
+
+
+_held_lock = threading.Lock()
+_held = {"count": 0, "installed": False}  # solves in flight; whether we set the handler
+
+
 @contextlib.contextmanager
 def _trial_warnings_held():
     """MuJoCo's warnings of a trial state (a Newton step or a finite-difference column that
     diverged) kept from MUJOCO_LOG.TXT in the user's folder: the map marks such a trial NaN and
-    the solver steps back. A handler the user set stays in charge."""
-    previous = mujoco.get_mju_user_warning()
-    if previous is not None:
-        yield
-        return
-    mujoco.set_mju_user_warning(lambda message: None)
+    the solver steps back. A handler the user set stays in charge. The handler is
+    process-wide: counted across threads, set by the first solve, restored by the last."""
+    with _held_lock:
+        if _held["count"] == 0:
+            _held["installed"] = mujoco.get_mju_user_warning() is None
+            if _held["installed"]:
+                mujoco.set_mju_user_warning(_ignore_warning)
+        _held["count"] += 1
     try:
         yield
     finally:
-        mujoco.set_mju_user_warning(None)
+        with _held_lock:
+            _held["count"] -= 1
+            if _held["count"] == 0 and _held["installed"] and \
+                    mujoco.get_mju_user_warning() is _ignore_warning:
+                mujoco.set_mju_user_warning(None)
+
+
+def not_periodic_reason(rig: RigParameters, friction: FrictionParameters) -> str | None:
+    """Why the rig's steady state cannot be a periodic orbit (the forcing itself is not
+    periodic), or None."""
+    if friction.time_map_knots_s:
+        return "a time map changes the friction level over time"
+    if rig.drive_velocity_m_per_s != 0 and (friction.position_ripple
+                                            or friction.position_map_knots_m):
+        return ("friction that varies along the travel (a position ripple or map) changes "
+                "as the drive moves on")
+    f_m = friction.normal_force_modulation_frequency_Hz
+    if friction.normal_force_modulation and f_m > 0:
+        ratio = f_m / rig.vibration_frequency_Hz if is_vibrating(rig) else math.inf
+        if not abs(ratio - round(ratio)) <= 1e-9 * max(1.0, ratio) or round(ratio) == 0:
+            return (f"the normal load is modulated at {f_m:g} Hz, not a multiple of the "
+                    "vibration's frequency")
+    return None
 
 
 @dataclass
@@ -215,6 +248,7 @@ def _scales(orbit: np.ndarray, x: np.ndarray, drift: np.ndarray) -> np.ndarray:
     return np.maximum(scale, floor)
 
 
+@_trial_warnings_held()
 def periodic(model: mujoco.MjModel, data: mujoco.MjData, period_s: float, *,
              drift: np.ndarray | None = None, coordinates: Sequence[int] | None = None,
              multiples: Sequence[int] = DEFAULT_MULTIPLES,
@@ -570,6 +604,7 @@ def neutral_is_safe(friction: FrictionParameters) -> bool:
     return friction.static_ratio == 1
 
 
+@_trial_warnings_held()
 def solve_rig(rig: RigParameters, friction: FrictionParameters, *,
               timestep_s: float | None = None, tolerance: float = 1e-3,
               multiples: Sequence[int] = DEFAULT_MULTIPLES) -> RigOrbit:
@@ -765,8 +800,25 @@ def run_periodic(cases: Sequence[tuple[RigParameters, FrictionParameters]], *,
     notes: dict[int, str] = {}
     done = 0
     for i, ((r, f), dt) in enumerate(zip(cases, dts)):
-        with _trial_warnings_held():  # (a run that diverges is flagged or falls back)
-            orbit = solve_rig(r, f, timestep_s=dt, tolerance=tolerance)
+        reason = not_periodic_reason(r, f)
+        if reason is not None and fallback:
+            failed.append(i)
+            notes[i] = f"not periodic: {reason}"
+            continue
+        if reason is not None:
+            nan = math.nan
+            out[i] = SteadyRun(rig=r, friction=f, timestep_s=dt,
+                               summary=RunSummary(nan, nan, nan, nan, False, nan, nan, 0),
+                               convergence=Convergence(
+                                   converged=False, tolerance=tolerance, window_s=nan,
+                                   windows=0, relative_change=math.inf,
+                                   estimated_remaining_error=math.inf, simulated_s=0.0,
+                                   method="periodic", note=f"not periodic: {reason}"))
+            done += 1
+            if progress:
+                progress(done, len(cases))
+            continue
+        orbit = solve_rig(r, f, timestep_s=dt, tolerance=tolerance)
         if orbit.summary is not None and (orbit.converged or not fallback):
             relative = orbit.mean_residual / max(abs(orbit.summary.mean_drive_force_N), 1e-300)
             out[i] = SteadyRun(rig=r, friction=f, timestep_s=orbit.timestep_s,
@@ -783,7 +835,7 @@ def run_periodic(cases: Sequence[tuple[RigParameters, FrictionParameters]], *,
                 progress(done, len(cases))
         elif fallback:
             failed.append(i)
-            notes[i] = orbit.message
+            notes[i] = f"periodic orbit not found ({orbit.message})"
         else:
             nan = math.nan
             out[i] = SteadyRun(rig=r, friction=f, timestep_s=orbit.timestep_s,
@@ -803,7 +855,7 @@ def run_periodic(cases: Sequence[tuple[RigParameters, FrictionParameters]], *,
                                 nthread=nthread)
         for i, run in zip(failed, runs):
             out[i] = replace(run, convergence=replace(
-                run.convergence, note=f"periodic orbit not found ({notes[i]}); ran the "
+                run.convergence, note=f"{notes[i]}; ran the "
                 "transient"))
             done += 1
             if progress:
@@ -813,4 +865,4 @@ def run_periodic(cases: Sequence[tuple[RigParameters, FrictionParameters]], *,
 
 __all__ = ["periodic", "PeriodicOrbit", "PeriodicError", "state_layout", "default_coordinates",
            "solve_rig", "run_periodic", "RigOrbit", "guess_force_N", "rig_start",
-           "rig_coordinates", "static_period_s", "neutral_is_safe"]
+           "rig_coordinates", "static_period_s", "neutral_is_safe", "not_periodic_reason"]
