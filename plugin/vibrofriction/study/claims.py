@@ -555,8 +555,8 @@ def summary_json(results: StudyResults, claims: Sequence[Claim]) -> dict[str, An
 
 
 def convergence_summary(results: StudyResults) -> dict[str, Any]:
-    """How many of the study's mean-force runs converged (vibrofriction.rigs.steady), and which
-    did not."""
+    """How many of the study's mean-force runs converged (their periodic orbit, or a run to
+    steady state), and which did not."""
     runs = [("master", p) for p in results.master] + [("fig14", p) for p in results.fig14] + [
         ("stiffness", p) for p in results.stiffness.points]
     if results.sweep is not None:
@@ -570,8 +570,8 @@ def convergence_summary(results: StudyResults) -> dict[str, Any]:
 
 def _convergence_line(summary: dict[str, Any]) -> str:
     text = (f"Steady state: {summary['converged']} of {summary['runs']} points converged to "
-            "0.1 %, each its run and its static run (each run goes on until it does, at most "
-            "2 s)")
+            "0.1 %, each its run and its static run (by default each point's periodic orbit; "
+            "where none is found a run that goes on until it settles, at most 2 s)")
     if not summary["unconverged"]:
         return text + "."
     return text + "; not converged: " + "; ".join(

@@ -46,7 +46,7 @@ class MasterPoint:
     friction_max_N: float
     sign_change: bool
     kinematic_ratio: float
-    converged: bool  # the run and its static run reached steady state (vibrofriction.rigs.steady)
+    converged: bool  # the run and its static run reached steady state (orbit or transient)
     estimated_remaining_error: float  # relative, of mean_drive_force_N
     window_start_s: float  # the averaging window of mean_drive_force_N
     window_end_s: float

@@ -51,7 +51,9 @@ def _convergence(claims: dict) -> list[str]:
     c = claims.get("convergence")
     if c is None:
         return []
-    text = (f"Every mean drive force is a run to steady state (`vibrofriction.rigs.steady`): "
+    text = ("Every mean drive force is its steady state (by default its periodic orbit, "
+            "`vibrofriction.rigs.periodic`; where none is found or the forcing is not periodic, "
+            "a run until its windowed mean settles, `vibrofriction.rigs.steady`): "
             f"{c['converged']} of {c['runs']} points converged to 0.1 %, each its run and its "
             "static run")
     if c["unconverged"]:
