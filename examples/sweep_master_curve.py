@@ -9,11 +9,13 @@ from vibrofriction.rigs.sweep import sweep
 
 def main() -> None:
     rig = RigParameters()  # the paper's rig: 4 kHz, v_d = 0.5 mm/s, F_N = 55.2 N
-    # each point is its periodic steady state, solved for (method "auto": by shooting, or a
-    # run until its mean drive force settles where no periodic orbit is found); a fixed short
-    # run can stop in the transient: 0.676 at kappa 1.5 after 40 ms, where the steady value is
-    # 0.77
-    result = sweep(rig, default_friction("dahl", rig), [0.75e-3, 3e-3, 20e-3], progress=False)
+    # each point is its periodic steady state, solved for (method "auto": by shooting, 10-30x
+    # cheaper than waiting for it; a run until its mean drive force settles where no orbit is
+    # found); a fixed short run can stop in the transient: 0.676 at kappa 1.5 after 40 ms,
+    # where the steady value is 0.77. (Near the contact resonance orbits can coexist: there
+    # method "transient", the default, gives the one reached from rest.)
+    result = sweep(rig, default_friction("dahl", rig), [0.75e-3, 3e-3, 20e-3], progress=False,
+                   method="auto")
     print(f"static drive force {result['static_drive_force_N']:.3f} N")
     for point in result["points"]:
         print(f"v_a {1e3 * point['vibration_velocity_amplitude_m_per_s']:5.2f} mm/s "

@@ -134,7 +134,8 @@ def test_an_unconverged_sweep_point_warns_in_the_python_api():
     assert result["static_convergence"]["method"] == "periodic"
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        result = sweep(PAPER, default_friction("dahl", PAPER), [3e-3], progress=False)
+        result = sweep(PAPER, default_friction("dahl", PAPER), [3e-3], progress=False,
+                       method="auto")
     assert result["all_converged"] and result["points"][0]["method"] == "periodic"
 
 

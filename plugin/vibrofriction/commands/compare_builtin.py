@@ -39,7 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="steps per vibration period of the timestep ladder "
                              "(dt = T/(N + 0.382)); the finest is the reference")
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
-    add_method_argument(parser)
+    add_method_argument(parser, default="auto")  # (the converged curve's cost: the product's route)
     # No --timestep: the ladder and the master grid set every timestep.
     add_common_arguments(parser, law=False, timestep=False)
 

@@ -62,7 +62,7 @@ def config_from_args(args: argparse.Namespace) -> StudyConfig:
         if not args.timestep > 0:
             raise ParameterError(f"--timestep {args.timestep} must be > 0")
         changes["timestep_s"] = args.timestep
-    changes["method"] = getattr(args, "method", "auto")
+    changes["method"] = getattr(args, "method", "transient")
     return study_config(args.quick, **changes)
 
 

@@ -37,15 +37,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "threads run the tasks: dask worker --nthreads N)")
 
 
-def add_method_argument(parser: argparse.ArgumentParser) -> None:
+def add_method_argument(parser: argparse.ArgumentParser, default: str = "transient") -> None:
     """--method periodic|transient|auto (shared by sweep, reproduce and compare-builtin)."""
-    parser.add_argument("--method", choices=METHODS, default="auto",
-                        help="how each run reaches its steady state: periodic (solve for the "
-                             "periodic orbit by shooting, rigs.periodic; a point whose orbit "
-                             "is not found is flagged), transient (run from rest until the "
-                             "windowed mean settles), auto (default: periodic where the orbit "
-                             "is found, transient otherwise); each point's \"method\" says "
-                             "which. Not with --duration, which runs fixed-length transients")
+    parser.add_argument("--method", choices=METHODS, default=default,
+                        help="how each run reaches its steady state: transient (run from rest "
+                             "until the windowed mean settles), periodic (solve for the "
+                             "periodic orbit by shooting, rigs.periodic, 10-30x cheaper; a "
+                             "point whose orbit is not found is flagged; where orbits coexist "
+                             "it may find another than the one reached from rest), auto "
+                             "(periodic where the orbit is found, transient otherwise); "
+                             f"default {default}; each point's \"method\" says which. Not "
+                             "with --duration, which runs fixed-length transients")
 
 
 def parse_amplitudes(text: str) -> list[float]:

@@ -42,7 +42,7 @@ def run_cases(cases: Sequence[Case], *, timestep_s: float | None = None,
               max_duration_s: float | None = None, nthread: int | None = None,
               chunk_size: int | None = None, scheduler: Any = None,
               progress: Any = None, keep_series: bool = False,
-              method: str = "auto") -> list[SteadyRun]:
+              method: str = "transient") -> list[SteadyRun]:
     """The one engine of the package's sweeps: each case's summary and convergence, in the
     cases' order.
 
@@ -54,11 +54,14 @@ def run_cases(cases: Sequence[Case], *, timestep_s: float | None = None,
     case without ``chunk_size``) is a task on that cluster. A case's result depends only on its
     own parameters and timestep, not on the chunks. ``progress(done, total)`` counts cases.
 
-    ``method`` (to steady state only): "periodic" solves for each case's periodic orbit
-    (``rigs.periodic``: a case whose orbit is not found is flagged unconverged), "transient"
-    runs each from rest until its windows settle (``steady``), "auto" (default) the orbit
-    where it is found and the transient otherwise; each result's ``convergence.method`` says
-    which. A run of fixed ``duration_s``, or one that keeps its time series, is a transient."""
+    ``method`` (to steady state only): "transient" (default) runs each from rest until its
+    windows settle (``steady``); "periodic" solves for each case's periodic orbit
+    (``rigs.periodic``, 10-30x cheaper; a case whose orbit is not found is flagged
+    unconverged), "auto" the orbit where it is found and the transient otherwise; each
+    result's ``convergence.method`` says which. Where orbits coexist (near the slider's
+    contact resonance) the orbit found may not be the one a run from rest reaches: the Fig. 14
+    configuration, Dahl at kappa_v 0.75, gives the sliding orbit (F_dv/F_ds 1.000) where the
+    run from rest, and the scipy oracle, end vibrating (0.710). A run of fixed ``duration_s``, or one that keeps its time series, is a transient."""
     check_method(method)
     if duration_s is not None and method == "periodic":
         raise InputError("a run of fixed duration is a transient: method 'periodic' solves "
@@ -183,12 +186,11 @@ def sweep(rig: RigParameters, friction: FrictionParameters, amplitudes: list[flo
           timestep_s: float | None = None, duration_s: float | None = None,
           settle_time_s: float | None = None, tolerance: float = DEFAULT_TOLERANCE,
           max_duration_s: float | None = None, nthread: int | None = None,
-          progress: bool = True, scheduler: Any = None, method: str = "auto",
+          progress: bool = True, scheduler: Any = None, method: str = "transient",
           warn: bool = True) -> dict[str, Any]:
     """Run the sweep; return the docs/interfaces.md JSON object. Local rollout threads, or with
     ``scheduler`` (a Dask address or Client) one task per amplitude on that cluster.
-    ``method``: ``run_cases``'s (default auto: each point's periodic orbit where it is found,
-    its transient otherwise; each point says which). With ``warn``, a point that did not
+    ``method``: ``run_cases``'s (default transient; each point says which). With ``warn``, a point that did not
     converge raises ``rig.UnconvergedWarning`` (its number is flagged "converged": false)."""
     if nthread is not None and scheduler is not None:
         # a Dask worker runs each amplitude on the threads it was started with

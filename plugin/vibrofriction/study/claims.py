@@ -570,8 +570,8 @@ def convergence_summary(results: StudyResults) -> dict[str, Any]:
 
 def _convergence_line(summary: dict[str, Any]) -> str:
     text = (f"Steady state: {summary['converged']} of {summary['runs']} points converged to "
-            "0.1 %, each its run and its static run (by default each point's periodic orbit; "
-            "where none is found a run that goes on until it settles, at most 2 s)")
+            "0.1 %, each its run and its static run (each run goes on from rest until it does, at "
+            "most 2 s; or, with --method periodic or auto, each point's periodic orbit)")
     if not summary["unconverged"]:
         return text + "."
     return text + "; not converged: " + "; ".join(

@@ -156,9 +156,10 @@ class StudyConfig:
                                                 0.056 * CONTACT_AREA_MM2)
     # A fixed timestep for every run instead of the rule (None: study_timestep).
     timestep_s: float | None = None
-    # How each run reaches its steady state (rigs.sweep.run_cases): "auto" (the periodic orbit
-    # where it is found, the transient otherwise), "periodic" or "transient".
-    method: str = "auto"
+    # How each run reaches its steady state (rigs.sweep.run_cases): "transient" (from rest:
+    # the study's orbits, where several coexist near the contact resonance), "periodic" or
+    # "auto" (the orbit where it is found: 10-30x cheaper).
+    method: str = "transient"
     # Base parameters (--set overrides): the paper's rig; friction None = params defaults.
     rig: RigParameters = PAPER_RIG
     friction: FrictionParameters | None = None

@@ -51,9 +51,9 @@ def _convergence(claims: dict) -> list[str]:
     c = claims.get("convergence")
     if c is None:
         return []
-    text = ("Every mean drive force is its steady state (by default its periodic orbit, "
-            "`vibrofriction.rigs.periodic`; where none is found or the forcing is not periodic, "
-            "a run until its windowed mean settles, `vibrofriction.rigs.steady`): "
+    text = ("Every mean drive force is its steady state reached from rest (a run until its "
+            "windowed mean settles, `vibrofriction.rigs.steady`; `--method periodic` solves "
+            "for the orbits instead, `vibrofriction.rigs.periodic`): "
             f"{c['converged']} of {c['runs']} points converged to 0.1 %, each its run and its "
             "static run")
     if c["unconverged"]:
@@ -63,7 +63,38 @@ def _convergence(claims: dict) -> list[str]:
 
 
 def _builtin_table(builtin_md: str) -> list[str]:
-    return [line for line in builtin_md.splitlines() if line.startswith("|")]
+    """The first table of builtin.md (the timestep comparison)."""
+    lines, started = [], False
+    for line in builtin_md.splitlines():
+        if line.startswith("|"):
+            lines.append(line)
+            started = True
+        elif started:
+            break
+    return lines
+
+
+def _costs(builtin: dict) -> list[str]:
+    """The converged master curve's cost by each route, when the run measured it
+    (compare-builtin; reproduce leaves it out)."""
+    costs = builtin.get("converged_costs")
+    if not costs:
+        return []
+    from .builtin import converged_costs_table
+    return [
+        "### The converged master curve: what it costs by each route",
+        "",
+        f"{len(costs['kappas'])} values of kappa_v from {costs['kappas'][0]:g} to "
+        f"{costs['kappas'][-1]:g} and the static run, per law family: CPU seconds (single "
+        "thread, side by side in this run) to every point within "
+        f"{costs['accuracy']:.0%} of the converged curve. **periodic**: the product's route "
+        "(each point's periodic orbit; the transient where none is found); **transient**: the "
+        "plugin run from rest until its windows settle; **built-in**: MuJoCo's element run "
+        "from rest as long as the plugin's transient, at the coarsest refinement of the "
+        f"rule's step within {costs['accuracy']:.0%}.",
+        "",
+        converged_costs_table(costs),
+        ""]
 
 
 def write_study_page(results: Path, docs: Path, *, figure_prefix: str = "figures") -> Path:
@@ -119,6 +150,7 @@ def write_study_page(results: Path, docs: Path, *, figure_prefix: str = "figures
         "",
         figures[4],
         "",
+        *_costs(builtin),
     ])
     path = docs / "study.md"
     path.write_text(text)

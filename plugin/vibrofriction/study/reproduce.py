@@ -25,12 +25,13 @@ def comparison_config(quick: bool) -> builtin.ComparisonConfig:
     """The comparison's grids, with the variants this MuJoCo can build (builtin.md names any
     left out)."""
     variants = builtin.available_variants(builtin.ComparisonConfig().variants)
+    # (the converged curve's cost by each route is compare-builtin's and
+    # scripts/bench_converged.py's: minutes of CPU the study's own numbers do not need)
     if not quick:
-        return builtin.ComparisonConfig(variants=variants)
+        return builtin.ComparisonConfig(variants=variants, cost_kappas=())
     return builtin.ComparisonConfig(variants=variants, operating_kappas=(1.5, 6.0),
                                     ladder_steps=(25, 50, 200), master_kappas=(1.0, 1.5, 6.0),
-                                    master_steps=50, cost_kappas=(1.5, 6.0, 24.0),
-                                    cost_refinements=1)
+                                    master_steps=50, cost_kappas=())
 
 
 def reproduce(out: Path = DEFAULT_OUT, *, config: StudyConfig | None = None,

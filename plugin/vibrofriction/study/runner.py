@@ -1,10 +1,10 @@
 """Running many rig cases for the study: timestep rule, runs to steady state, summaries only.
 
-Each case runs at its timestep (``StudyConfig.timestep``) to its steady state: by default its
-periodic orbit (``rigs.periodic``), where that is not found until its mean drive force has
-converged (``steady.run_until_steady``: Hann-weighted windows of whole periods after the
-transient, within 0.1 %; ``StudyConfig.method`` chooses), so a number does not depend on which cases happened to run beside
-it. Cases are run by the package's one engine (``rigs.sweep.run_cases``): together on MuJoCo's
+Each case runs at its timestep (``StudyConfig.timestep``) to its steady state: by default from
+rest until its mean drive force has converged (``steady.run_until_steady``: Hann-weighted
+windows of whole periods after the transient, within 0.1 %); ``StudyConfig.method`` may ask for
+the periodic orbit (``rigs.periodic``) instead. A number does not depend on which cases
+happened to run beside it. Cases are run by the package's one engine (``rigs.sweep.run_cases``): together on MuJoCo's
 rollout threads, a few at a time, or chunk by chunk on a Dask cluster.
 """
 from __future__ import annotations
