@@ -23,8 +23,11 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, default=ROOT / "docs", metavar="DOCS",
                         help="docs folder (default the repository's docs/)")
     parser.add_argument("--quick", action="store_true", help="accepted for uniformity; unused")
+    parser.add_argument("--costs", type=Path, default=None, metavar="DIR",
+                        help="a `vibrofriction compare-builtin` output folder: its converged "
+                             "master curve's cost by each route goes on the page")
     args = parser.parse_args(argv)
-    path = write_study_page(args.results, args.out)
+    path = write_study_page(args.results, args.out, costs_from=args.costs)
     print(f"wrote {path} and figures in {args.out / 'figures'}")
     return 0
 

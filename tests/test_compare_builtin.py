@@ -146,3 +146,15 @@ def test_required_timestep_is_the_largest_from_which_on_all_finer_steps_pass():
     assert builtin._required([0.5, 0.5, 0.5, 0.5], dts, 0.01, skip_last=False) is None
     # Against another variant's reference the finest step counts too.
     assert builtin._required([0.5, 0.5, 0.5, 0.005], dts, 0.01, skip_last=False) == 1.0
+
+
+def test_the_converged_curves_cost_is_measured_per_law_family(cli_run):
+    """compare-builtin times the converged master curve by each route, per law family whose
+    plugin variant ran (reproduce leaves this out)."""
+    _, _, payload = cli_run
+    costs = payload["converged_costs"]
+    assert costs["kappas"] == pytest.approx([1.5, 6.0, 24.0]) and costs["accuracy"] == 0.01
+    assert costs["laws"]
+    for law, entry in costs["laws"].items():
+        assert entry["periodic"]["cpu_s"] > 0 and entry["transient"]["cpu_s"] > 0, law
+        assert entry["periodic"]["runs"] == 4, law  # the static run and three kappa_v

@@ -68,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
                              + ", ".join(builtin.VARIANTS))
     # The targets are needed as references.
     needed = list(dict.fromkeys(names + [builtin.VARIANTS[v].target for v in names]))
-    cmp_config = comparison_config(args.quick)
+    cmp_config = comparison_config(args.quick, costs=True)
     cmp_changes = {"variants": tuple(needed), "method": args.method}
     if args.ladder:
         try:

@@ -74,7 +74,7 @@ def _builtin_table(builtin_md: str) -> list[str]:
     return lines
 
 
-def _costs(builtin: dict) -> list[str]:
+def _costs(builtin: dict, source: str = "this run") -> list[str]:
     """The converged master curve's cost by each route, when the run measured it
     (compare-builtin; reproduce leaves it out)."""
     costs = builtin.get("converged_costs")
@@ -86,7 +86,7 @@ def _costs(builtin: dict) -> list[str]:
         "",
         f"{len(costs['kappas'])} values of kappa_v from {costs['kappas'][0]:g} to "
         f"{costs['kappas'][-1]:g} and the static run, per law family: CPU seconds (single "
-        "thread, side by side in this run) to every point within "
+        f"thread, side by side in {source}) to every point within "
         f"{costs['accuracy']:.0%} of the converged curve. **periodic**: the product's route "
         "(each point's periodic orbit; the transient where none is found); **transient**: the "
         "plugin run from rest until its windows settle; **built-in**: MuJoCo's element run "
@@ -97,11 +97,18 @@ def _costs(builtin: dict) -> list[str]:
         ""]
 
 
-def write_study_page(results: Path, docs: Path, *, figure_prefix: str = "figures") -> Path:
+def write_study_page(results: Path, docs: Path, *, figure_prefix: str = "figures",
+                     costs_from: Path | None = None) -> Path:
+    """docs/study.md from a reproduce run's folder; ``costs_from``: a ``compare-builtin``
+    run's folder whose converged-curve costs the page shows (reproduce does not time them)."""
     results, docs = Path(results), Path(docs)
     claims = json.loads((results / "claims.json").read_text())
     builtin_md = (results / "builtin.md").read_text()
     builtin = json.loads((results / "builtin.json").read_text())
+    costs, costs_source = builtin, "this run"
+    if costs_from is not None:
+        costs = json.loads((Path(costs_from) / "builtin.json").read_text())
+        costs_source = "one run of `vibrofriction compare-builtin` on the same machine"
     figures = []
     for name, caption in KEY_FIGURES:
         target = compact_png(results / name, docs / figure_prefix / name)
@@ -150,7 +157,7 @@ def write_study_page(results: Path, docs: Path, *, figure_prefix: str = "figures
         "",
         figures[4],
         "",
-        *_costs(builtin),
+        *_costs(costs, costs_source),
     ])
     path = docs / "study.md"
     path.write_text(text)

@@ -21,17 +21,20 @@ def study_config(quick: bool, **changes: Any) -> StudyConfig:
     return replace(config, **changes) if changes else config
 
 
-def comparison_config(quick: bool) -> builtin.ComparisonConfig:
+def comparison_config(quick: bool, costs: bool = False) -> builtin.ComparisonConfig:
     """The comparison's grids, with the variants this MuJoCo can build (builtin.md names any
-    left out)."""
+    left out). ``costs``: also the converged master curve's cost by each route
+    (compare-builtin's; reproduce leaves out these minutes of CPU its own numbers do not
+    need)."""
     variants = builtin.available_variants(builtin.ComparisonConfig().variants)
-    # (the converged curve's cost by each route is compare-builtin's and
-    # scripts/bench_converged.py's: minutes of CPU the study's own numbers do not need)
     if not quick:
-        return builtin.ComparisonConfig(variants=variants, cost_kappas=())
+        full = builtin.ComparisonConfig(variants=variants)
+        return full if costs else replace(full, cost_kappas=())
     return builtin.ComparisonConfig(variants=variants, operating_kappas=(1.5, 6.0),
                                     ladder_steps=(25, 50, 200), master_kappas=(1.0, 1.5, 6.0),
-                                    master_steps=50, cost_kappas=())
+                                    master_steps=50,
+                                    cost_kappas=(1.5, 6.0, 24.0) if costs else (),
+                                    cost_refinements=1)
 
 
 def reproduce(out: Path = DEFAULT_OUT, *, config: StudyConfig | None = None,
