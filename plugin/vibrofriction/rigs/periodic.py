@@ -785,81 +785,62 @@ def run_periodic(cases: Sequence[tuple[RigParameters, FrictionParameters]], *,
     steady state by ``steady.run_until_steady`` ("transient", its ``note`` saying why);
     without it the case is flagged unconverged (its numbers those of the last orbit tried, or
     NaN)."""
-    from .steady import Convergence, SteadyRun, check_timestep, run_until_steady
-    if not (tolerance > 0 and math.isfinite(tolerance)):
-        raise ParameterError(f"tolerance {_plain(tolerance)!r} must be a positive number "
-                             "(a relative error, e.g. 1e-3)")
-    dts = (list(timesteps) if timesteps is not None
-           else [rig_module.recommended_timestep(r) for r, _ in cases])
-    if len(dts) != len(cases):
-        raise ValueError(f"{len(dts)} timesteps for {len(cases)} cases")
-    for (r, _), dt in zip(cases, dts):  # (a fallback would refuse it after the solve)
-        check_timestep(r, dt)
+    from .steady import Convergence, SteadyRun, case_timesteps, run_until_steady
+    # (every timestep checked first: a fallback would refuse one only after the solve)
+    dts = case_timesteps(cases, timesteps, tolerance)
     out: list = [None] * len(cases)
-    failed: list[int] = []
-    notes: dict[int, str] = {}
+    failed: dict[int, str] = {}  # case -> why it goes to the transient
     done = 0
+
+    def finish(i: int, run) -> None:
+        nonlocal done
+        out[i] = run
+        done += 1
+        if progress:
+            progress(done, len(cases))
+
+    def flagged(i: int, dt: float, simulated_s: float, note: str):
+        """A case without an orbit, unconverged, its numbers NaN (no fallback asked)."""
+        nan = math.nan
+        (r, f) = cases[i]
+        return SteadyRun(rig=r, friction=f, timestep_s=dt,
+                         summary=RunSummary(nan, nan, nan, nan, False, nan, nan, 0),
+                         convergence=Convergence(
+                             converged=False, tolerance=tolerance, window_s=nan, windows=0,
+                             relative_change=math.inf, estimated_remaining_error=math.inf,
+                             simulated_s=simulated_s, method="periodic", note=note))
+
     for i, ((r, f), dt) in enumerate(zip(cases, dts)):
         reason = not_periodic_reason(r, f)
-        if reason is not None and fallback:
-            failed.append(i)
-            notes[i] = f"not periodic: {reason}"
-            continue
         if reason is not None:
-            nan = math.nan
-            out[i] = SteadyRun(rig=r, friction=f, timestep_s=dt,
-                               summary=RunSummary(nan, nan, nan, nan, False, nan, nan, 0),
-                               convergence=Convergence(
-                                   converged=False, tolerance=tolerance, window_s=nan,
-                                   windows=0, relative_change=math.inf,
-                                   estimated_remaining_error=math.inf, simulated_s=0.0,
-                                   method="periodic", note=f"not periodic: {reason}"))
-            done += 1
-            if progress:
-                progress(done, len(cases))
+            if fallback:
+                failed[i] = f"not periodic: {reason}"
+            else:
+                finish(i, flagged(i, dt, 0.0, f"not periodic: {reason}"))
             continue
         orbit = solve_rig(r, f, timestep_s=dt, tolerance=tolerance)
         if orbit.summary is not None and (orbit.converged or not fallback):
             relative = orbit.mean_residual / max(abs(orbit.summary.mean_drive_force_N), 1e-300)
-            out[i] = SteadyRun(rig=r, friction=f, timestep_s=orbit.timestep_s,
-                               summary=orbit.summary, convergence=Convergence(
-                                   converged=orbit.converged, tolerance=tolerance,
-                                   window_s=orbit.summary.window_end_s
-                                   - orbit.summary.window_start_s,
-                                   windows=orbit.multiple, relative_change=relative,
-                                   estimated_remaining_error=relative,
-                                   simulated_s=orbit.simulated_s, method="periodic",
-                                   note=orbit.message))
-            done += 1
-            if progress:
-                progress(done, len(cases))
+            finish(i, SteadyRun(rig=r, friction=f, timestep_s=orbit.timestep_s,
+                                summary=orbit.summary, convergence=Convergence(
+                                    converged=orbit.converged, tolerance=tolerance,
+                                    window_s=orbit.summary.window_end_s
+                                    - orbit.summary.window_start_s,
+                                    windows=orbit.multiple, relative_change=relative,
+                                    estimated_remaining_error=relative,
+                                    simulated_s=orbit.simulated_s, method="periodic",
+                                    note=orbit.message)))
         elif fallback:
-            failed.append(i)
-            notes[i] = f"periodic orbit not found ({orbit.message})"
+            failed[i] = f"periodic orbit not found ({orbit.message})"
         else:
-            nan = math.nan
-            out[i] = SteadyRun(rig=r, friction=f, timestep_s=orbit.timestep_s,
-                               summary=RunSummary(nan, nan, nan, nan, False, nan, nan, 0),
-                               convergence=Convergence(
-                                   converged=False, tolerance=tolerance, window_s=nan,
-                                   windows=0, relative_change=math.inf,
-                                   estimated_remaining_error=math.inf,
-                                   simulated_s=orbit.simulated_s, method="periodic",
-                                   note=orbit.message))
-            done += 1
-            if progress:
-                progress(done, len(cases))
+            finish(i, flagged(i, orbit.timestep_s, orbit.simulated_s, orbit.message))
     if failed:
         runs = run_until_steady([cases[i] for i in failed], timesteps=[dts[i] for i in failed],
                                 tolerance=tolerance, max_duration_s=max_duration_s,
                                 nthread=nthread)
-        for i, run in zip(failed, runs):
-            out[i] = replace(run, convergence=replace(
-                run.convergence, note=f"{notes[i]}; ran the "
-                "transient"))
-            done += 1
-            if progress:
-                progress(done, len(cases))
+        for (i, why), run in zip(failed.items(), runs):
+            finish(i, replace(run, convergence=replace(
+                run.convergence, note=f"{why}; ran the transient")))
     return out
 
 

@@ -182,6 +182,22 @@ def check_timestep(rig: RigParameters, timestep_s: float) -> None:
             "smaller --timestep")
 
 
+def case_timesteps(cases: Sequence[Case], timesteps: Sequence[float] | None,
+                   tolerance: float) -> list[float]:
+    """Each case's timestep (the rule's where none is given), every input checked before
+    anything is simulated (either route)."""
+    if not (tolerance > 0 and math.isfinite(tolerance)):
+        raise ParameterError(f"tolerance {_plain(tolerance)!r} must be a positive number "
+                             "(a relative error, e.g. 1e-3)")
+    dts = (list(timesteps) if timesteps is not None
+           else [rig_module.recommended_timestep(r) for r, _ in cases])
+    if len(dts) != len(cases):
+        raise ValueError(f"{len(dts)} timesteps for {len(cases)} cases")
+    for (r, _), dt in zip(cases, dts):
+        check_timestep(r, dt)
+    return dts
+
+
 def run_until_steady(cases: Sequence[Case], *, timesteps: Sequence[float] | None = None,
                      tolerance: float = DEFAULT_TOLERANCE,
                      max_duration_s: float | None = None, keep_series: bool = False,
@@ -190,19 +206,12 @@ def run_until_steady(cases: Sequence[Case], *, timesteps: Sequence[float] | None
     """Run every case until its windowed mean drive force has converged (module docstring),
     or until ``max_duration_s`` (default DEFAULT_MAX_DURATION_S; at least the transient
     guess and three windows). Cases run together on rollout threads."""
-    if not (tolerance > 0 and math.isfinite(tolerance)):
-        raise ParameterError(f"tolerance {_plain(tolerance)!r} must be a positive number "
-                             "(a relative error, e.g. 1e-3)")
+    dts = case_timesteps(cases, timesteps, tolerance)
     if max_duration_s is not None and not (max_duration_s > 0 and math.isfinite(max_duration_s)):
         raise ParameterError(f"maximum duration {_plain(max_duration_s)!r} must be a positive "
                              "number of seconds")
-    dts = (list(timesteps) if timesteps is not None
-           else [rig_module.recommended_timestep(r) for r, _ in cases])
-    if len(dts) != len(cases):
-        raise ValueError(f"{len(dts)} timesteps for {len(cases)} cases")
     todo: list[_Case] = []
     for i, ((r, f), dt) in enumerate(zip(cases, dts)):
-        check_timestep(r, dt)
         model = rig_module.build_model(r, f, dt)
         settle = rig_module.default_times(r, f)[1]
         window = window_length_s(r)
@@ -364,7 +373,8 @@ def check_method(method: str) -> str:
     return method
 
 
-__all__ = ["Convergence", "SteadyRun", "run_until_steady", "check_timestep", "METHODS",
+__all__ = ["Convergence", "SteadyRun", "run_until_steady", "check_timestep",
+           "case_timesteps", "METHODS",
            "check_method", "window_length_s", "judge",
            "hann_mean", "convergence_of_run", "longest_run_s", "DEFAULT_TOLERANCE",
            "DEFAULT_MAX_DURATION_S"]
