@@ -242,6 +242,10 @@ inline double FirstOrderLagStep(double lagged, double previous_input, double inp
 // The single actuator backed by `instance`, or -1 (with a warning) if none or several.
 int FindActuator(const mjModel* m, int instance, const char* plugin);
 
+// The kinematic trees (dof_treeid) an actuator's transmission moves: its joint's, or its fixed
+// tendon's joints' (-1: a site or body transmission, taken as any).
+void TransmissionTrees(const mjModel* m, int actuator, std::vector<int>* trees);
+
 // Velocity of actuator output `out` for the current qvel (moment row times qvel). Used after
 // integration, when mjData.actuator_velocity still holds the previous velocity.
 double TransmissionVelocity(const mjModel* m, const mjData* d, int out);

@@ -1230,8 +1230,8 @@ void SolveImplicitEndVelocity(const double B[N * N], const double v_free[N], dou
   for (int i = 0; i < N; ++i) force[i] = f[i];
 }
 
-// The parameters with the level's speed dependence (Stribeck curve) frozen at `speed`: the
-// level g(speed) as the Coulomb level, Dupont's breakaway deflection kept.
+}  // namespace
+
 LawParameters LevelAtSpeed(const LawParameters& p, double speed) {
   const double shape = VelocityShape(p, speed);
   LawParameters q = p;
@@ -1242,6 +1242,8 @@ LawParameters LevelAtSpeed(const LawParameters& p, double speed) {
   q.breakaway_ratio = p.breakaway_ratio / shape;
   return q;
 }
+
+namespace {
 
 // The elastic guess: the deflection follows the motion over the step, z + dt w (exact while it
 // sticks in Dupont's elastic range, close for Dahl and LuGre): (I + (k dt + s1 + s2) B) w =

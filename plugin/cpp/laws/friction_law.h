@@ -177,6 +177,12 @@ inline double VelocityShape(const LawParameters& p, double velocity) {
   return shape;
 }
 
+// The parameters with the level's speed dependence (Stribeck curve, velocity map) frozen at
+// `speed`: the level g(speed) as the Coulomb level, Dupont's breakaway deflection kept. The
+// implicit steps take it so: a level that falls with the speed, taken at the end speed, would
+// give the step several solutions.
+LawParameters LevelAtSpeed(const LawParameters& p, double speed);
+
 // Stribeck curve g (N) at the input's velocity: F_c + (F_s - F_c) exp(-(v/v_s)^2) (x the
 // velocity map).
 inline double StribeckLevel(const LawParameters& p, const LawInput& in) {

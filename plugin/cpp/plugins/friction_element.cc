@@ -77,32 +77,10 @@ static bool CheckTransmission(const mjModel* m, int actuator) {
   return true;
 }
 
-// The kinematic trees (dof_treeid) an actuator's transmission moves: its joint's, or its
-// fixed tendon's joints'.
-static void TreesOf(const mjModel* m, int actuator, std::vector<int>* trees) {
-  const int id = m->actuator_trnid[2 * actuator];
-  auto add_joint = [&](int joint) {
-    if (joint >= 0) trees->push_back(m->dof_treeid[m->jnt_dofadr[joint]]);
-  };
-  switch (m->actuator_trntype[actuator]) {
-    case mjTRN_JOINT:
-    case mjTRN_JOINTINPARENT:
-      add_joint(id);
-      break;
-    case mjTRN_TENDON:
-      for (int w = m->tendon_adr[id]; w < m->tendon_adr[id] + m->tendon_num[id]; ++w) {
-        if (m->wrap_type[w] == mjWRAP_JOINT) add_joint(m->wrap_objid[w]);
-      }
-      break;
-    default:  // a site or body transmission: assume it may share (conservative)
-      trees->push_back(-1);
-  }
-}
-
 static bool SharesTree(const mjModel* m, int a, int b) {
   std::vector<int> ta, tb;
-  TreesOf(m, a, &ta);
-  TreesOf(m, b, &tb);
+  TransmissionTrees(m, a, &ta);
+  TransmissionTrees(m, b, &tb);
   for (int x : ta) {
     for (int y : tb) {
       if (x == y || x < 0 || y < 0) return true;
@@ -243,20 +221,6 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
 
 namespace {
 
-// The parameters with the level's speed dependence (Stribeck curve, velocity map) frozen at
-// `speed`, as the vector elements' implicit step takes it: a level that falls with the speed,
-// taken at the end speed, would give the step several solutions.
-LawParameters LevelFrozenAt(const LawParameters& p, double speed) {
-  const double shape = VelocityShape(p, speed);
-  LawParameters q = p;
-  if (shape == 1.0) return q;
-  q.static_ratio = 1.0;
-  q.velocity_map.count = 0;
-  q.friction_coefficient *= shape;
-  q.breakaway_ratio = p.breakaway_ratio / shape;
-  return q;
-}
-
 // The root w of h(w) = w + B F(w) - v_free for a force F(w) that does not decrease with w
 // (it may jump: a play's face): regula falsi (Illinois) on the bracket between v_free and
 // v_free - B F(v_free), where h changes sign, to the last bit. Returns the force consistent with
@@ -339,7 +303,7 @@ double FrictionElement::ImplicitDeflectionForce(const mjModel* m, mjData* d, int
   const LawParameters& p = config_->law;
   const double dt = m->opt.timestep;
   const double B = dt * response.inverse_mass;
-  const LawParameters q = LevelFrozenAt(p, in.velocity);
+  const LawParameters q = LevelAtSpeed(p, in.velocity);
   LawInput at = in;  // the deflection's update over the step, as advance takes it
   at.time = in.time + 0.5 * dt;
   double w = 0.0;

@@ -153,28 +153,6 @@ void ComputePlanarResponse(const mjModel* m, mjData* d, const int output[2],
 
 // ---- A vibration the timestep cannot resolve -----------------------------------------------------
 
-void TransmissionTrees(const mjModel* m, int actuator, std::vector<int>* trees) {
-  const int id = m->actuator_trnid[2 * actuator];
-  auto add_joint = [&](int joint) {
-    if (joint >= 0 && m->jnt_dofadr[joint] >= 0) {
-      trees->push_back(m->dof_treeid[m->jnt_dofadr[joint]]);
-    }
-  };
-  switch (m->actuator_trntype[actuator]) {
-    case mjTRN_JOINT:
-    case mjTRN_JOINTINPARENT:
-      add_joint(id);
-      break;
-    case mjTRN_TENDON:
-      for (int w = m->tendon_adr[id]; w < m->tendon_adr[id] + m->tendon_num[id]; ++w) {
-        if (m->wrap_type[w] == mjWRAP_JOINT) add_joint(m->wrap_objid[w]);
-      }
-      break;
-    default:
-      trees->push_back(-1);
-  }
-}
-
 bool CheckVibrationResolved(const mjModel* m, const char* plugin, const std::vector<int>& trees,
                             const LawParameters& law, const char* fix) {
   const double dt = m->opt.timestep;

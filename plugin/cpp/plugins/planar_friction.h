@@ -92,10 +92,6 @@ inline constexpr double kMinStepsPerPeriod = 10.0;
 bool CheckVibrationResolved(const mjModel* m, const char* plugin, const std::vector<int>& trees,
                             const LawParameters& law, const char* fix);
 
-// The kinematic trees (dof_treeid) an actuator's transmission moves (-1: a site or body
-// transmission, taken as any).
-void TransmissionTrees(const mjModel* m, int actuator, std::vector<int>* trees);
-
 class PlanarFriction {
  public:
   static constexpr char kName[] = "vibrofriction.planar";
