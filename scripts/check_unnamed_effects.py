@@ -39,7 +39,7 @@ FACTORS = {
     "drift": lambda t, x, v: 1.0 + 0.12 * t / T_S,
     "speed_shape": lambda t, x, v: 1.0 - 0.15 * min(abs(v) / 2e-3, 1.0)
     + 10.0 * max(abs(v) - 2e-3, 0.0),
-    "load_2f": lambda t, x, v: 1.0 + 0.1 * math.sin(2 * math.pi * 2 * F_HZ * t),
+    "load_2f": lambda t, x, v: 1.0 + 0.3 * math.sin(2 * math.pi * 2 * F_HZ * t),
 }
 
 

@@ -19,7 +19,7 @@ import pytest
 from vibrofriction import cli
 from vibrofriction.data import synthetic
 from vibrofriction.data.datasets import read_dataset, write_dataset
-from vibrofriction.identify import EFFECTS, identify
+from vibrofriction.identify import identify
 from vibrofriction.identify.model import INVERSE_EFFECTS
 from vibrofriction.identify.report import report_json, rig_replay
 
@@ -27,6 +27,8 @@ DURATION_S = 0.05
 HELD_OUT_DRIVE_VELOCITY_M_PER_S = 0.7e-3
 # Outside the vocabulary: an additive 150 Hz tone on the force channel (mains harmonic).
 DISTURBANCE = synthetic.PeriodicDisturbance(frequency_Hz=150.0, amplitude_N=0.3, phase_rad=0.4)
+# the vocabulary's effects the generator can hide (the load modulation at 2 f of the harmonics)
+EFFECTS = tuple(synthetic.EFFECTS)
 CASES = ("clean", *EFFECTS, "disturbance")
 
 # Recovered values of the hidden effect: relative tolerance (phases: absolute, rad). Set from
@@ -104,7 +106,11 @@ def test_hidden_effect_is_selected_and_recovered(results, effect) -> None:
     assert r.final.train.rmse_N < 0.7 * r.baseline.train.rmse_N
     assert r.final.validation[0].rmse_N < 0.7 * r.baseline.validation[0].rmse_N
     # The hidden value comes back.
+    fitted = r.final.model.friction_parameters(r.final.values, r.train.vibration_frequency_Hz)
     for name, truth in synthetic.EFFECTS[effect].items():
+        if name == "normal_force_modulation_frequency_Hz":  # the harmonic's, not fitted
+            assert fitted.normal_force_modulation_frequency_Hz == truth
+            continue
         got = r.final.values[name]
         if name.endswith("_phase_rad"):
             assert abs(math.remainder(got - truth, 2 * math.pi)) < PHASE_TOLERANCE_RAD, name
@@ -128,7 +134,7 @@ def test_periodic_disturbance_selects_nothing_and_is_reported(results) -> None:
 
 # Effects that change the friction force by far more than the rig's own discretization error.
 STRONG_IN_THE_RIG = ("viscous", "asymmetry", "position_ripple", "normal_force_modulation",
-                     "force_offset")
+                     "normal_force_modulation_2f", "force_offset")
 
 
 @pytest.mark.parametrize("effect", EFFECTS)

@@ -60,6 +60,11 @@ EFFECTS: dict[str, dict[str, float]] = {
                         "position_ripple_phase_rad": 0.6},
     "normal_force_modulation": {"normal_force_modulation": 0.1,
                                 "normal_force_modulation_phase_rad": 0.8},
+    # at twice the vibration frequency (a support that rocks twice a period)
+    "normal_force_modulation_2f": {"normal_force_modulation": 0.1,
+                                   "normal_force_modulation_phase_rad": 0.8,
+                                   "normal_force_modulation_frequency_Hz":
+                                       2 * BASE_RIG.vibration_frequency_Hz},
     "drive_damping": {"drive_damping_N_s_per_m": 500.0},  # rig field; drive-force record
     "sensor_lag": {"sensor_lag_s": 8.0e-6},  # 11 degrees at 4 kHz
     "force_offset": {"force_offset_N": 0.6},

@@ -20,6 +20,8 @@ import math
 from dataclasses import dataclass
 from typing import Callable, Generic, Protocol, Sequence, TypeVar
 
+from .model import excluded_by
+
 # A justified candidate whose held-out RMSE is this fraction or more below the dBIC-best's
 # is chosen instead (the held-out records are the direct measure of prediction).
 HELD_OUT_MARGIN = 0.10
@@ -106,6 +108,8 @@ def select(back_end: BackEnd[C, F], start: F, effects: Sequence[str],
         best, why = _choose(justified)
         selected.append(best.effect)
         remaining.remove(best.effect)
+        # (one of an exclusive group: a load modulation at one harmonic of the vibration)
+        remaining = [e for e in remaining if e not in excluded_by(selected)]
         accepted = back_end.accept(best, current, index)
         candidates[best.effect] = accepted
         current = accepted.fit

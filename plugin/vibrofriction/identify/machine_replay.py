@@ -37,6 +37,7 @@ from ..rigs import rig as rig_module
 from ..data.datasets import Dataset, smoothed_derivative
 from ..errors import InputError
 from ..params import FrictionParameters, RigParameters
+from .model import modulation_not_applicable
 from .start import start_velocity, starts_in_motion
 from .replay import (SampleGrid, contact_at_rest, contact_sliding, grid_steps, noise_sd,
                      speed_quantiles, substeps_of_record, uniform_times)
@@ -226,7 +227,7 @@ NOT_APPLICABLE = {
     "drive_damping": "a machine has no drive spring (its damping is viscous friction)",
     "backlash": "a machine has no drive spring whose play the rig's backlash models",
     "sensor_lag": "the drive force of a machine record is its controller's logged command",
-    "normal_force_modulation": "the machine's support does not vibrate",
+    **modulation_not_applicable("the machine's support does not vibrate"),
 }
 
 

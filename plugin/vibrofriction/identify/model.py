@@ -28,7 +28,44 @@ from .record import Record
 
 # The identification vocabulary (docs/interfaces.md), in the order candidates are listed.
 EFFECTS = ("viscous", "stribeck", "asymmetry", "position_ripple", "normal_force_modulation",
-           "drive_damping", "sensor_lag", "force_offset")
+           "normal_force_modulation_2f", "normal_force_modulation_3f",
+           "normal_force_modulation_4f", "drive_damping", "sensor_lag", "force_offset")
+# The normal load modulated at a harmonic n f of the vibration (a support that rocks or
+# bounces twice a period, a cam): amplitude and phase fitted, one harmonic at a time (the
+# plugin modulates the load at one frequency, so they exclude each other).
+MODULATION_HARMONICS = {"normal_force_modulation": 1, "normal_force_modulation_2f": 2,
+                        "normal_force_modulation_3f": 3, "normal_force_modulation_4f": 4}
+# Effects of which a model holds at most one (the selection drops the others once one joins).
+EXCLUSIVE_GROUPS = (tuple(MODULATION_HARMONICS),)
+
+
+def excluded_by(effects: Sequence[str]) -> set[str]:
+    """The effects that cannot join a model holding ``effects`` (their exclusive groups)."""
+    out: set[str] = set()
+    for group in EXCLUSIVE_GROUPS:
+        if any(e in group for e in effects):
+            out.update(e for e in group if e not in effects)
+    return out
+
+
+def modulation_not_applicable(reason: str | None, frequency_Hz: float | None = None,
+                              dt_s: float | None = None) -> dict[str, str]:
+    """effect -> why not, for the load modulations: all of them with ``reason`` (the support
+    does not vibrate, ...), else the harmonics a record sampled every ``dt_s`` cannot resolve
+    (above 0.8 of its Nyquist frequency)."""
+    if reason:
+        return {e: reason for e in MODULATION_HARMONICS}
+    if not frequency_Hz or not dt_s:
+        return {}
+    nyquist = 0.5 / dt_s
+    return {e: f"{n} f = {n * frequency_Hz:.4g} Hz is above 0.8 of the record's Nyquist "
+               f"frequency ({nyquist:.4g} Hz)"
+            for e, n in MODULATION_HARMONICS.items() if n * frequency_Hz > 0.8 * nyquist}
+
+
+def modulation_harmonic(effects: Sequence[str]) -> int:
+    """n of the normal-load modulation among ``effects`` (0: none)."""
+    return next((MODULATION_HARMONICS[e] for e in effects if e in MODULATION_HARMONICS), 0)
 # Free-form effects beyond the vocabulary's narrow forms: the friction level as a spline along
 # the travel, over the speed, and over time (a drift: heating, run-in, wear). Their shapes are
 # free, so they compete with the vocabulary's narrower forms on the information criterion.
@@ -235,7 +272,7 @@ EFFECT_INTERNALS: dict[str, tuple[str, ...]] = {
     "stribeck": ("static_ratio", "stribeck_velocity_m_per_s"),
     "asymmetry": ("asymmetry",),
     "position_ripple": ("ripple_cos", "ripple_sin", "position_ripple_wavelength_m"),
-    "normal_force_modulation": ("modulation_cos", "modulation_sin"),
+    **{e: ("modulation_cos", "modulation_sin") for e in MODULATION_HARMONICS},
     "drive_damping": ("drive_damping_N_s_per_m",),
     "sensor_lag": ("sensor_lag_s",),
     "force_offset": ("force_offset_N",),
@@ -252,7 +289,8 @@ EFFECT_FIELDS: dict[str, tuple[str, ...]] = {
     "asymmetry": ("asymmetry",),
     "position_ripple": ("position_ripple", "position_ripple_wavelength_m",
                         "position_ripple_phase_rad"),
-    "normal_force_modulation": ("normal_force_modulation", "normal_force_modulation_phase_rad"),
+    **{e: ("normal_force_modulation", "normal_force_modulation_phase_rad")
+       for e in MODULATION_HARMONICS},
     "drive_damping": ("drive_damping_N_s_per_m",),
     "sensor_lag": ("sensor_lag_s",),
     "force_offset": ("force_offset_N",),
@@ -397,9 +435,14 @@ class Model:
                 values.get("contact_stiffness_N_per_m", self.base.contact_stiffness_N_per_m),
                 values.get("gms_spread", 10.0))
         friction = replace(self.base, **fields)
-        if "normal_force_modulation" in values and vibration_frequency_Hz:
-            friction = replace(friction,
-                               normal_force_modulation_frequency_Hz=vibration_frequency_Hz)
+        harmonic = modulation_harmonic(self.effects)
+        if harmonic and "normal_force_modulation" in values:
+            if vibration_frequency_Hz:
+                friction = replace(friction, normal_force_modulation_frequency_Hz=harmonic *
+                                   vibration_frequency_Hz)
+            elif harmonic > 1:  # (0 would mean the vibration frequency itself)
+                raise ValueError(f"a load modulation at {harmonic} f needs the vibration "
+                                 "frequency")
         return friction
 
     def predict(self, record: Record, q: np.ndarray, *,
@@ -409,13 +452,17 @@ class Model:
 
     def predict_values(self, record: Record, values: Mapping[str, float], *,
                        mass_kg: float | None = None) -> np.ndarray:
-        friction = replace(self.friction_parameters(values), normal_force_modulation=0.0,
+        # (the modulation is applied here, on the support's measured phase)
+        friction = replace(self.friction_parameters(values, record.vibration_frequency_Hz),
+                           normal_force_modulation=0.0,
                            sensor_lag_s=0.0)
         normal = record.grid_normal_force_N
         modulation = values.get("normal_force_modulation", 0.0)
         if modulation and record.vibrating:
             phase = values.get("normal_force_modulation_phase_rad", 0.0)
-            normal = normal * (1.0 + modulation * np.sin(record.grid_support_phase_rad() + phase))
+            harmonic = modulation_harmonic(self.effects) or 1
+            normal = normal * (1.0 + modulation * np.sin(harmonic * record.grid_support_phase_rad()
+                                                         + phase))
         position = record.grid_position_m if (values.get("position_ripple", 0.0) or
                                               self.position_map_knots_m) else None
         z0 = 0.0
@@ -500,5 +547,6 @@ def first_order_lag(signal: np.ndarray, time_s: np.ndarray, tau_s: float,
 
 ProgressFn = Callable[[str], None]
 
-__all__ = ["IDENTIFIABLE_LAWS", "gms_elements", "GMS_FITTED_ELEMENTS", "EFFECTS", "MAP_EFFECTS", "CONTACT_EFFECTS", "INVERSE_EFFECTS", "LAW_PARAMETERS", "EFFECT_FIELDS", "EFFECT_INTERNALS", "Param", "Scales",
+__all__ = ["IDENTIFIABLE_LAWS", "MODULATION_HARMONICS", "EXCLUSIVE_GROUPS", "excluded_by",
+           "modulation_harmonic", "modulation_not_applicable", "gms_elements", "GMS_FITTED_ELEMENTS", "EFFECTS", "MAP_EFFECTS", "CONTACT_EFFECTS", "INVERSE_EFFECTS", "LAW_PARAMETERS", "EFFECT_FIELDS", "EFFECT_INTERNALS", "Param", "Scales",
            "Model", "first_order_lag", "forward_steps"]

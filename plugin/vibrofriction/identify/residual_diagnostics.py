@@ -90,6 +90,10 @@ HINTS = {
     "time_since_reversal": "a transient after each reversal: a play, a ringing?",
     "drive_force": "a dependence on the load: a sensor's nonlinearity?",
     "friction_force": "a dependence on the friction level: a sensor's nonlinearity?",
+    # (a tone at n f: the load modulated at that harmonic, or an additive disturbance)
+    "harmonic_1": "a normal load modulated at f? (--with normal_force_modulation)",
+    **{f"harmonic_{n}": f"a normal load modulated at {n} f? (--with "
+       f"normal_force_modulation_{n}f)" for n in (2, 3, 4)},
 }
 
 

@@ -38,8 +38,9 @@ from ..vocabulary import TERMS_BY_NAME
 from .analysis import ResidualAnalysis, analyse
 from .driver import select
 from .fit import FitResult, Problem
-from .model import (EFFECT_INTERNALS, IDENTIFIABLE_LAWS, INVERSE_EFFECTS, RIG_EFFECTS, Model,
-                    Scales)
+from .model import (EFFECT_INTERNALS, IDENTIFIABLE_LAWS, INVERSE_EFFECTS, MODULATION_HARMONICS,
+                    RIG_EFFECTS, EXCLUSIVE_GROUPS, Model, Scales, excluded_by,
+                    modulation_not_applicable)
 from .record import Record, prepare
 from .replay import MIN_SAMPLES
 
@@ -122,7 +123,8 @@ def identify(train: Dataset, validation: Sequence[Dataset] = (), *, law: str = "
     baseline = problem.fit(model, start)
     say(f"baseline: RMSE {baseline.train.rmse_N:.4g} N, relerr {baseline.train.relerr_pct:.3g} %")
     baseline_analysis = analyse(record, baseline.residual)
-    remaining = [e for e in INVERSE_EFFECTS if e not in declared and e not in skipped]
+    remaining = [e for e in INVERSE_EFFECTS if e not in declared and e not in skipped
+                 and e not in excluded_by(declared)]
     workers = threads or min(len(remaining) or 1, rig_module._cpu_count())
     with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
         back_end = _InverseRounds(problem, scales, min_improvement, bic_threshold, pool, say)
@@ -179,9 +181,10 @@ class _InverseRounds:
 
 def _not_applicable(record: Record, law: str, declared: Sequence[str]) -> dict[str, str]:
     out: dict[str, str] = {}
-    if not record.vibrating:
-        out["normal_force_modulation"] = ("the support does not vibrate (no support velocity "
-                                          "or vibration_frequency_Hz)")
+    out.update(modulation_not_applicable(
+        None if record.vibrating else "the support does not vibrate (no support velocity or "
+        "vibration_frequency_Hz)", record.vibration_frequency_Hz,
+        float(np.median(np.diff(record.time_s)))))
     if record.target == "drive":
         out["sensor_lag"] = ("the lag (sensor_lag_s) is the plugin's friction-sensor lag; this "
                              "record measures the drive force, whose prediction holds the "
@@ -220,6 +223,12 @@ def check_law_and_effects(law: str, declared: Sequence[str],
         where = f" ({'; '.join(notes)})" if notes else ""
         raise InputError(f"unknown effect(s) {', '.join(unknown)}{where}; the vocabulary is "
                          f"{', '.join(effects)}")
+    clashing = [group for group in EXCLUSIVE_GROUPS
+                if len([e for e in declared if e in group]) > 1]
+    if clashing:
+        both = [e for e in declared if e in clashing[0]]
+        raise InputError(f"effects {', '.join(both)} exclude each other (the load is modulated "
+                         "at one harmonic of the vibration); declare one of them")
     if "contact_play" in declared and law not in _PLAY_LAWS:
         raise InputError(f"effect contact_play is a play before the bristles, which law {law} "
                          f"does not have; use --law with one of {', '.join(_PLAY_LAWS)}, or "
@@ -331,7 +340,7 @@ def _candidate(problem: Problem, current: FitResult, effect: str, scales: Scales
         val_ratio = float(np.mean([math.log(a.rmse_N / b.rmse_N)
                                    for a, b in zip(fit.validation, current.validation)]))
     tone_dbic = tone_frequency = None
-    if effect in ("position_ripple", "normal_force_modulation"):
+    if effect == "position_ripple" or effect in MODULATION_HARMONICS:
         tone_dbic, tone_frequency = _tone_competition(problem, current, fit, effect)
     reasons = []
     if not delta_bic < bic_threshold:
@@ -508,7 +517,7 @@ def _exposing_regressor(effect: str, analysis: ResidualAnalysis) -> str:
     preferred = {
         "viscous": "relative_velocity", "stribeck": "relative_velocity",
         "asymmetry": "relative_velocity", "position_ripple": "position",
-        "normal_force_modulation": "support_phase", "drive_damping": "support_phase",
+        **{e: "support_phase" for e in MODULATION_HARMONICS}, "drive_damping": "support_phase",
         "sensor_lag": "support_phase", "force_offset": "relative_velocity",
         "position_map": "position", "velocity_map": "relative_velocity", "time_map": "time",
         "contact_play": "time_since_reversal",

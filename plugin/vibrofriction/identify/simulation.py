@@ -60,7 +60,8 @@ from ..params import FrictionParameters, RigParameters, lugre_default_bristle_da
 from .analysis import effective_samples, uniform_spectrum
 from .driver import select
 from .fit import Metrics, _metrics
-from .model import EFFECT_INTERNALS, SIMULATION_EFFECTS, Model, Scales, forward_steps
+from .model import (EFFECT_INTERNALS, MODULATION_HARMONICS, SIMULATION_EFFECTS, Model, Scales,
+                    excluded_by, forward_steps, modulation_not_applicable)
 from .replay import MAX_SUBSTEPS, MIN_SAMPLES, Replayer, RigReplay, stick_phase_steps
 from .replays import prepare_replay
 from .shooting import MultipleShooting
@@ -323,7 +324,7 @@ class SimulationProblem:
         """(rig, friction, initial-state values, the scene's named values) of one
         simulation, as ``Replayer.run`` takes them."""
         replay = replay or self.train
-        friction = model.friction_parameters(values)
+        friction = model.friction_parameters(values, replay.rig.vibration_frequency_Hz or None)
         mass = values.get("mass_kg", replay.rig.mass_kg if replay.mass_known else
                           self.train.rig.mass_kg)
         rig = replay.fitted_rig(values, mass)
@@ -626,7 +627,8 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
     baseline = _baseline(problem, law, declared, fit_mass, say, scan, still, refine)
     back_end = _SimulationRounds(problem, baseline.scales, baseline.local, declared,
                                  min_improvement, bic_threshold, say)
-    remaining = [e for e in SIMULATION_EFFECTS if e not in declared and e not in skipped]
+    remaining = [e for e in SIMULATION_EFFECTS if e not in declared and e not in skipped
+                 and e not in excluded_by(declared)]
     selection = select(back_end, baseline.fit, remaining, say)
     current = selection.final
     errors = problem.standard_errors(current)
@@ -1049,13 +1051,16 @@ def _first_rows(dataset: Dataset, rows: int, label: str = "") -> Dataset:
 
 def _not_applicable(replay: RigReplay, law: str, declared: Sequence[str]) -> dict[str, str]:
     out: dict[str, str] = dict(getattr(replay, "not_applicable", {}))
-    if not replay.vibrating and "normal_force_modulation" not in out:
-        out["normal_force_modulation"] = ("the support does not vibrate (no support motion or "
-                                          "no vibration_frequency_Hz)")
-    if getattr(replay, "normal_force_from_record", False) and \
-            "normal_force_modulation" not in out:  # (a machine replay has no such column)
-        out["normal_force_modulation"] = ("the record measures the normal load "
-                                          "(normal_force_N), which the replay applies as it is")
+    reason = None
+    if not replay.vibrating:
+        reason = "the support does not vibrate (no support motion or no vibration_frequency_Hz)"
+    elif getattr(replay, "normal_force_from_record", False):  # (a machine replay has none)
+        reason = "the record measures the normal load (normal_force_N), which the replay " \
+            "applies as it is"
+    dt = float(np.median(np.diff(replay.time_s)))
+    for effect, why in modulation_not_applicable(
+            reason, replay.rig.vibration_frequency_Hz, dt).items():
+        out.setdefault(effect, why)
     for effect in declared:
         out.pop(effect, None)
     return out
@@ -1349,7 +1354,7 @@ def _judge(problem: SimulationProblem, current: SimFit, fit: SimFit, effect: str
         val_ratio = float(np.mean([math.log(a.rmse_N / b.rmse_N)
                                    for a, b in zip(fit.validation, current.validation)]))
     tone_dbic = tone_frequency = None
-    if effect in ("position_ripple", "normal_force_modulation"):
+    if effect == "position_ripple" or effect in MODULATION_HARMONICS:
         tone_dbic, tone_frequency = _tone_competition(problem, current, fit, effect, n_eff)
     reasons = []
     if not delta_bic < bic_threshold:

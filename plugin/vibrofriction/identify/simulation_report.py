@@ -47,7 +47,8 @@ def parameters(result: SimIdentification, fit: SimFit) -> dict[str, float | None
 
 def _case(result: SimIdentification, fit: SimFit) -> tuple[RigParameters, Any]:
     replay = result.train
-    friction = fit.model.friction_parameters(fit.values)
+    friction = fit.model.friction_parameters(fit.values,
+                                             replay.rig.vibration_frequency_Hz or None)
     mass = fit.values.get("mass_kg", replay.rig.mass_kg)
     rig = replay.fitted_rig(fit.values, mass)
     return rig, friction
