@@ -17,6 +17,7 @@ EXPECTED = {
     "identify_a_record.py": r"mu 0\.21\d* \(true 0\.21\), effects selected: none",
     "robot_push.py": r"vibration on : part moved",
     "gym_style_env.py": r"vibration gate 1: part moved",
+    "own_effect.py": r"selected: run_in\n.*run_in_excess = 0\.1[45]",
     "fit_with_mujoco_sysid.py": r"mu 0\.1700 \(true 0\.17\), contact stiffness 60\.00 N/um",
     # (the batched extra absent: the example says why it skipped)
     "batched_feeder_env.py": r"conveying speed after 200 ms: 7\.0\d* mm/s|skipped: ",

@@ -20,6 +20,7 @@ from .common import (UsageError, check_output_folder, check_replaceable_folder, 
 from ..data.datasets import Dataset, all_or_nothing, read_dataset
 from ..identify import MIN_IMPROVEMENT, identify
 from ..identify.model import IDENTIFIABLE_LAWS, INVERSE_EFFECTS, RIG_EFFECTS
+from ..identify.own_effects import load_effects_file, unregister
 from ..identify.report import report_json, rig_replay, write_report
 
 HELP = ("fit a friction law to a measured record (dataset format), trace the residual to "
@@ -93,6 +94,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="inverse path: timestep of the MuJoCo rig replay of the final "
                              "model (records of a spring-driven rig only; default 1e-6); the "
                              "simulation path chooses its own (see --substeps)")
+    parser.add_argument("--effects-from", dest="effects_from", type=Path, action="append",
+                        default=[], metavar="FILE.py",
+                        help="a Python file that registers effects of one's own "
+                             "(vibrofriction.identify.own_effects.register_effect): they are "
+                             "candidates and --with names like the vocabulary's "
+                             "(docs/identification.md, examples/own_effect.py); repeatable")
     parser.add_argument("--no-figures", action="store_true",
                         help="skip the PNG figures (each record's series_<dataset>.csv is "
                              "still written)")
@@ -102,14 +109,26 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    own: list[str] = []
+    try:
+        for path in args.effects_from:
+            own += load_effects_file(path)
+        return _run(args, own)
+    finally:  # (registered for this run: an in-process caller's next run starts without them)
+        for name in own:
+            unregister(name)
+
+
+def _run(args: argparse.Namespace, own: list[str]) -> int:
     started = time.monotonic()
     declared = [e.strip() for e in args.declared.split(",") if e.strip()]
     # (each path then checks the effects it traces: the maps are the inverse path's, backlash
     # the simulation path's)
-    unknown = [e for e in declared if e not in INVERSE_EFFECTS + RIG_EFFECTS]
+    known = INVERSE_EFFECTS + RIG_EFFECTS + tuple(own)
+    unknown = [e for e in declared if e not in known]
     if unknown:
         raise UsageError(f"--with: unknown effect(s) {', '.join(unknown)}; use: "
-                         f"{', '.join(INVERSE_EFFECTS + RIG_EFFECTS)}")
+                         f"{', '.join(known)} (or register your own: --effects-from)")
     if not 0 <= args.min_improvement < 1:
         raise UsageError(f"--min-improvement {args.min_improvement} must lie in [0, 1)")
     if args.substeps is not None and not 1 <= args.substeps <= 64:

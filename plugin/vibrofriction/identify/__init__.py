@@ -12,6 +12,8 @@ rig or a machine scene replayed along the record, every measured channel fitted)
 
 Modules, from the bottom up (no cycle among them: tests/test_layout.py):
 
+  own_effects ........... a researcher's own effects (a level factor over time, speed or
+                          position), registered as candidates without editing the selection
   start ................. where a record starts: at rest, or in motion with the contact sliding
   record ................ a dataset prepared for the inverse fit: signals, target, law input grid
   model ................. the model's parameters and effects; the inverse model's prediction

@@ -39,10 +39,17 @@ MODULATION_HARMONICS = {"normal_force_modulation": 1, "normal_force_modulation_2
 EXCLUSIVE_GROUPS = (tuple(MODULATION_HARMONICS),)
 
 
+def exclusive_groups() -> tuple[tuple[str, ...], ...]:
+    """EXCLUSIVE_GROUPS, and per level map the built-in map with the own effects it runs."""
+    own = OWN_EFFECTS
+    maps = tuple((m, *(n for n, e in own.items() if e.level_map == m)) for m in MAP_EFFECTS)
+    return EXCLUSIVE_GROUPS + tuple(g for g in maps if len(g) > 1)
+
+
 def excluded_by(effects: Sequence[str]) -> set[str]:
     """The effects that cannot join a model holding ``effects`` (their exclusive groups)."""
     out: set[str] = set()
-    for group in EXCLUSIVE_GROUPS:
+    for group in exclusive_groups():
         if any(e in group for e in effects):
             out.update(e for e in group if e not in effects)
     return out
@@ -81,6 +88,20 @@ INVERSE_EFFECTS = EFFECTS + MAP_EFFECTS + CONTACT_EFFECTS
 # the measured drive force as it is, so a play before the dynamometer does not enter it.
 RIG_EFFECTS = ("backlash",)
 SIMULATION_EFFECTS = EFFECTS + MAP_EFFECTS + RIG_EFFECTS
+BUILT_IN_EFFECTS = INVERSE_EFFECTS + RIG_EFFECTS
+# A researcher's own effects by name (``own_effects.LevelEffect``, put here by
+# ``own_effects.register_effect``): candidates after the vocabulary's, on both paths.
+OWN_EFFECTS: dict = {}
+
+
+def inverse_effects() -> tuple[str, ...]:
+    """The inverse path's candidates: the vocabulary's, then the own effects registered."""
+    return INVERSE_EFFECTS + tuple(OWN_EFFECTS)
+
+
+def simulation_effects() -> tuple[str, ...]:
+    """The simulation path's candidates: the vocabulary's, then the own effects registered."""
+    return SIMULATION_EFFECTS + tuple(OWN_EFFECTS)
 # Knots of a fitted map: evenly over the record's relative position (its range) and over
 # its speeds (0 to the 99th percentile of |v|); the factors sum to 0, so the map cannot trade
 # with the friction coefficient.
@@ -180,17 +201,19 @@ class Scales:
                    top_speed_m_per_s=top,
                    time_range_s=(0.0, float(record.time_s[-1] - record.time_s[0])))
 
-    def map_knots(self, effect: str) -> tuple[float, ...]:
-        """The knots of a fitted position, velocity or time map."""
+    def map_knots(self, effect: str, count: int | None = None) -> tuple[float, ...]:
+        """The knots of a fitted position, velocity or time map (``count`` of them, or the
+        built-in map's number)."""
         if effect == "time_map":
             low, high = self.time_range_s
             return tuple(np.linspace(low, high if high > low else low + 1.0,
-                                     TIME_MAP_KNOTS).tolist())
+                                     count or TIME_MAP_KNOTS).tolist())
         if effect == "position_map":
             low, high = self.position_range_m
             return tuple(np.linspace(low, high if high > low else low + self.travel_m,
-                                     POSITION_MAP_KNOTS).tolist())
-        return tuple(np.linspace(0.0, self.top_speed_m_per_s, VELOCITY_MAP_KNOTS).tolist())
+                                     count or POSITION_MAP_KNOTS).tolist())
+        return tuple(np.linspace(0.0, self.top_speed_m_per_s,
+                                 count or VELOCITY_MAP_KNOTS).tolist())
 
 
 def parameter_table(law: str, effects: Sequence[str], fit_mass: bool,
@@ -243,6 +266,9 @@ def parameter_table(law: str, effects: Sequence[str], fit_mass: bool,
         # a map's free factors (the last is minus their sum, held within the same bound)
         **{name: Param(name, -MAP_FACTOR_BOUND, MAP_FACTOR_BOUND, 0.1)
            for effect in MAP_EFFECTS for name in EFFECT_INTERNALS[effect]},
+        # an own effect's parameters, as its author bounded them
+        **{p.name: Param(p.name, p.lower, p.upper, p.scale, p.log)
+           for e in OWN_EFFECTS.values() for p in e.parameters},
     }
     # Within the vocabulary's limits (params.LIMITS): a fit never proposes a value the
     # plugin or the parameter check would refuse.
@@ -258,7 +284,7 @@ def parameter_table(law: str, effects: Sequence[str], fit_mass: bool,
             table[name] = replace(param, lower=lower, upper=upper)
     names = list(LAW_PARAMETERS[law])
     for effect in effects:
-        names.extend(EFFECT_INTERNALS[effect])
+        names.extend(effect_internals(effect))
     if fit_mass:
         names.append("mass_kg")
     names.extend(scene)
@@ -304,6 +330,45 @@ EFFECT_FIELDS: dict[str, tuple[str, ...]] = {
 }
 
 
+def effect_internals(effect: str) -> tuple[str, ...]:
+    """An effect's internal coordinates (an own effect's: its parameters)."""
+    own = OWN_EFFECTS.get(effect)
+    return tuple(p.name for p in own.parameters) if own else EFFECT_INTERNALS[effect]
+
+
+def effect_fields(effect: str) -> tuple[str, ...]:
+    """The values an effect reports (an own effect's: its parameters)."""
+    own = OWN_EFFECTS.get(effect)
+    return tuple(p.name for p in own.parameters) if own else EFFECT_FIELDS[effect]
+
+
+def own_map_effects(effects: Sequence[str]) -> list[str]:
+    """The level maps that the own effects among ``effects`` run as."""
+    own = OWN_EFFECTS
+    return [own[e].level_map for e in effects if e in own]
+
+
+def own_parameter_names(effects: Sequence[str]) -> list[str]:
+    """The parameters of the own effects among ``effects`` (reported; not --set names: the
+    plugin runs them as their level map's knots and factors)."""
+    own = OWN_EFFECTS
+    return [p.name for e in effects if e in own for p in own[e].parameters]
+
+
+def taken_parameter_names() -> set[str]:
+    """Names an own effect's parameter may not take (the fit's and the vocabulary's)."""
+    from dataclasses import fields as dataclass_fields
+    taken = {f.name for f in dataclass_fields(FrictionParameters)}
+    for names in (*EFFECT_INTERNALS.values(), *EFFECT_FIELDS.values(),
+                  *LAW_PARAMETERS.values()):
+        taken.update(names)
+    taken.update(("mass_kg", "joint_damping_N_s_per_m", "initial_velocity_m_per_s",
+                  "gms_spread"))
+    for e in OWN_EFFECTS.values():
+        taken.update(p.name for p in e.parameters)
+    return taken
+
+
 @dataclass(frozen=True)
 class Model:
     """A law with a set of effects (and maybe the mass) over a fixed parameter table."""
@@ -335,19 +400,24 @@ class Model:
     def build(cls, law: str, effects: Sequence[str], fit_mass: bool, scales: Scales,
               base: FrictionParameters | None = None, state: Sequence[str] = (),
               scene: Sequence[str] = ()) -> "Model":
-        effects = tuple(e for e in INVERSE_EFFECTS + RIG_EFFECTS if e in effects)
+        effects = tuple(e for e in BUILT_IN_EFFECTS + tuple(OWN_EFFECTS)
+                        if e in effects)
         base = base or FrictionParameters(law=law)
         speeds = tuple(scales.sliding_speeds_m_per_s) if "stribeck" in effects else ()
+        knots = {}  # each level map's knots: a built-in map's, or an own effect's over it
+        for effect in effects:
+            own = OWN_EFFECTS.get(effect)
+            if own is not None:
+                knots[own.level_map] = scales.map_knots(own.level_map, own.knots)
+            elif effect in MAP_EFFECTS:
+                knots[effect] = scales.map_knots(effect)
         return cls(law=law, effects=effects, fit_mass=fit_mass,
                    params=tuple(parameter_table(law, effects, fit_mass, scales, state, scene)),
                    base=replace(base, law=law), state=tuple(state), scene=tuple(scene),
                    level_speeds_m_per_s=speeds,
-                   position_map_knots_m=scales.map_knots("position_map")
-                   if "position_map" in effects else (),
-                   velocity_map_knots_m_per_s=scales.map_knots("velocity_map")
-                   if "velocity_map" in effects else (),
-                   time_map_knots_s=scales.map_knots("time_map")
-                   if "time_map" in effects else ())
+                   position_map_knots_m=knots.get("position_map", ()),
+                   velocity_map_knots_m_per_s=knots.get("velocity_map", ()),
+                   time_map_knots_s=knots.get("time_map", ()))
 
     @property
     def names(self) -> list[str]:
@@ -419,17 +489,22 @@ class Model:
                             vibration_frequency_Hz: float | None = None) -> FrictionParameters:
         """The FrictionParameters these values define (for the plugin / rig)."""
         fields = {k: v for k, v in values.items() if hasattr(self.base, k)}
-        if self.position_map_knots_m:
-            fields["position_map_knots_m"] = self.position_map_knots_m
-            fields["position_map_factors"] = tuple(values[n]
-                                                   for n in EFFECT_FIELDS["position_map"])
-        if self.velocity_map_knots_m_per_s:
-            fields["velocity_map_knots_m_per_s"] = self.velocity_map_knots_m_per_s
-            fields["velocity_map_factors"] = tuple(values[n]
-                                                   for n in EFFECT_FIELDS["velocity_map"])
-        if self.time_map_knots_s:
-            fields["time_map_knots_s"] = self.time_map_knots_s
-            fields["time_map_factors"] = tuple(values[n] for n in EFFECT_FIELDS["time_map"])
+        registered = OWN_EFFECTS
+        knots = {"position_map": self.position_map_knots_m,
+                 "velocity_map": self.velocity_map_knots_m_per_s,
+                 "time_map": self.time_map_knots_s}
+        for effect in self.effects:
+            if effect in MAP_EFFECTS:
+                factors = tuple(values[n] for n in EFFECT_FIELDS[effect])
+            elif effect in registered:  # an own effect: its factor at its map's knots
+                factors = registered[effect].factors(np.asarray(knots[registered[effect]
+                                                                      .level_map]), values)
+                effect = registered[effect].level_map
+            else:
+                continue
+            unit = {"position_map": "m", "velocity_map": "m_per_s", "time_map": "s"}[effect]
+            fields[f"{effect}_knots_{unit}"] = knots[effect]
+            fields[f"{effect}_factors"] = factors
         if self.law == "gms":
             fields["gms_stiffness_N_per_m"], fields["gms_weights"] = gms_elements(
                 values.get("contact_stiffness_N_per_m", self.base.contact_stiffness_N_per_m),
@@ -547,6 +622,8 @@ def first_order_lag(signal: np.ndarray, time_s: np.ndarray, tau_s: float,
 
 ProgressFn = Callable[[str], None]
 
-__all__ = ["IDENTIFIABLE_LAWS", "MODULATION_HARMONICS", "EXCLUSIVE_GROUPS", "excluded_by",
+__all__ = ["BUILT_IN_EFFECTS", "inverse_effects", "simulation_effects", "effect_internals",
+           "effect_fields", "exclusive_groups", "own_map_effects", "own_parameter_names",
+           "taken_parameter_names", "IDENTIFIABLE_LAWS", "MODULATION_HARMONICS", "EXCLUSIVE_GROUPS", "excluded_by",
            "modulation_harmonic", "modulation_not_applicable", "gms_elements", "GMS_FITTED_ELEMENTS", "EFFECTS", "MAP_EFFECTS", "CONTACT_EFFECTS", "INVERSE_EFFECTS", "LAW_PARAMETERS", "EFFECT_FIELDS", "EFFECT_INTERNALS", "Param", "Scales",
            "Model", "first_order_lag", "forward_steps"]

@@ -14,7 +14,8 @@ from ..provenance import json_text
 from .identifiability import inverse_diagnostics
 from . import residual_diagnostics
 from .fit import FitResult
-from .model import EFFECT_FIELDS, INVERSE_EFFECTS, MAP_EFFECTS
+from .model import (MAP_EFFECTS, effect_fields, inverse_effects, own_map_effects,
+                    own_parameter_names)
 from .selection import Identification
 from .series import inverse_series, listing as series_listing, write_series
 
@@ -37,6 +38,7 @@ def parameters(result: Identification, fit: FitResult) -> dict[str, float]:
     out["normal_force_N"] = float(np.median(record.normal_force_N))
     if "gms_spread" in fit.values:  # the coordinate the elements' lists were fitted in
         out["gms_spread"] = float(fit.values["gms_spread"])
+    out.update({n: fit.values[n] for n in own_parameter_names(fit.model.effects)})
     return {k: _finite(v) for k, v in out.items()}
 
 
@@ -46,7 +48,7 @@ def report_json(result: Identification) -> dict[str, Any]:
                 "validation": [m.as_dict(True) for m in fit.validation]}
 
     candidates = []
-    for effect in INVERSE_EFFECTS:
+    for effect in inverse_effects():
         c = result.candidates.get(effect)
         if c is None:
             continue
@@ -315,12 +317,15 @@ def _pm(fit: FitResult, name: str) -> str:
 
 
 def _effect_names(effect: str, fit: FitResult) -> list[str]:
-    return [n for n in EFFECT_FIELDS[effect] if n in fit.values]
+    return [n for n in effect_fields(effect) if n in fit.values]
 
 
 def _set_values(r: Identification) -> dict[str, float]:
     out = {}
+    own = own_parameter_names(r.final.model.effects)  # (run as their level map's lists)
     for name, value in parameters(r, r.final).items():
+        if name in own:
+            continue
         if name in r.final.values or name in ("normal_force_N",) or \
                 name == "normal_force_modulation_frequency_Hz" and \
                 "normal_force_modulation" in r.final.values:
@@ -330,7 +335,7 @@ def _set_values(r: Identification) -> dict[str, float]:
         out["mass_kg"] = parameters(r, r.final)["mass_kg"]
     fitted = parameters(r, r.final)
     for effect in MAP_EFFECTS:  # a map: its knots and factors, as lists
-        if effect in r.final.model.effects:
+        if effect in (*r.final.model.effects, *own_map_effects(r.final.model.effects)):
             prefix = effect.split("_")[0]
             out.update({k: v for k, v in fitted.items() if k.startswith(f"{prefix}_map_")})
     return out

@@ -38,9 +38,10 @@ from ..vocabulary import TERMS_BY_NAME
 from .analysis import ResidualAnalysis, analyse
 from .driver import select
 from .fit import FitResult, Problem
-from .model import (EFFECT_INTERNALS, IDENTIFIABLE_LAWS, INVERSE_EFFECTS, MODULATION_HARMONICS,
-                    RIG_EFFECTS, EXCLUSIVE_GROUPS, Model, Scales, excluded_by,
-                    modulation_not_applicable)
+from .model import (IDENTIFIABLE_LAWS, INVERSE_EFFECTS, MODULATION_HARMONICS, RIG_EFFECTS,
+                    Model, Scales, effect_internals, excluded_by, exclusive_groups,
+                    inverse_effects, modulation_not_applicable)
+from . import own_effects
 from .record import Record, prepare
 from .replay import MIN_SAMPLES
 
@@ -112,7 +113,7 @@ def identify(train: Dataset, validation: Sequence[Dataset] = (), *, law: str = "
         + (", mass identified" if fit_mass else "")
         + (f", {len(held)} held-out record(s)" if held else ""))
     skipped = _not_applicable(record, law, declared)
-    declared = tuple(e for e in INVERSE_EFFECTS if e in declared and e not in skipped)
+    declared = tuple(e for e in inverse_effects() if e in declared and e not in skipped)
     level, start = _initial_level(record, fit_mass, law)
     scales = Scales.of(record, level)
     base = FrictionParameters(law=law)
@@ -123,7 +124,7 @@ def identify(train: Dataset, validation: Sequence[Dataset] = (), *, law: str = "
     baseline = problem.fit(model, start)
     say(f"baseline: RMSE {baseline.train.rmse_N:.4g} N, relerr {baseline.train.relerr_pct:.3g} %")
     baseline_analysis = analyse(record, baseline.residual)
-    remaining = [e for e in INVERSE_EFFECTS if e not in declared and e not in skipped
+    remaining = [e for e in inverse_effects() if e not in declared and e not in skipped
                  and e not in excluded_by(declared)]
     workers = threads or min(len(remaining) or 1, rig_module._cpu_count())
     with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
@@ -207,12 +208,13 @@ def _not_applicable(record: Record, law: str, declared: Sequence[str]) -> dict[s
 
 
 def check_law_and_effects(law: str, declared: Sequence[str],
-                          effects: Sequence[str] = INVERSE_EFFECTS) -> None:
+                          effects: Sequence[str] | None = None) -> None:
     """InputError naming an unknown law or effect (both identification paths: the simulation
     path passes its own ``effects``, the vocabulary without the maps)."""
     if law not in IDENTIFIABLE_LAWS:
         raise InputError(f"unknown friction law {law!r}; use one of: "
                          f"{', '.join(IDENTIFIABLE_LAWS)}")
+    effects = inverse_effects() if effects is None else effects
     unknown = [e for e in declared if e not in effects]
     if unknown:
         maps = [e for e in unknown if e in INVERSE_EFFECTS]
@@ -223,12 +225,12 @@ def check_law_and_effects(law: str, declared: Sequence[str],
         where = f" ({'; '.join(notes)})" if notes else ""
         raise InputError(f"unknown effect(s) {', '.join(unknown)}{where}; the vocabulary is "
                          f"{', '.join(effects)}")
-    clashing = [group for group in EXCLUSIVE_GROUPS
+    clashing = [group for group in exclusive_groups()
                 if len([e for e in declared if e in group]) > 1]
     if clashing:
         both = [e for e in declared if e in clashing[0]]
-        raise InputError(f"effects {', '.join(both)} exclude each other (the load is modulated "
-                         "at one harmonic of the vibration); declare one of them")
+        raise InputError(f"effects {', '.join(both)} exclude each other (one load modulation, one "
+                         "level map over each regressor); declare one of them")
     if "contact_play" in declared and law not in _PLAY_LAWS:
         raise InputError(f"effect contact_play is a play before the bristles, which law {law} "
                          f"does not have; use --law with one of {', '.join(_PLAY_LAWS)}, or "
@@ -428,7 +430,9 @@ def _effect_start(problem: Problem, current: FitResult, effect: str,
         fixed = {"position_ripple_wavelength_m": wavelength}
         values, _ = project(["ripple_cos", "ripple_sin"], fixed)
         return {**fixed, **values}
-    values, _ = project(list(EFFECT_INTERNALS[effect]), {})
+    own = own_effects.registered().get(effect)
+    # (an own effect: projected on its linear parameters, the log ones at their scale)
+    values, _ = project(own.linear_names if own else list(effect_internals(effect)), {})
     return values
 
 
@@ -506,7 +510,7 @@ def _tone_competition(problem: Problem, current: FitResult, fit: FitResult,
         rss = float(np.sum((target - a @ coef) ** 2))
         if rss < best_rss:
             best_rss, best_f = rss, float(f)
-    k_effect = len(EFFECT_INTERNALS[effect])
+    k_effect = len(effect_internals(effect))
     n_eff = fit.n_eff
     dbic = n_eff * math.log(fit.rss / best_rss) + (k_effect - 3) * math.log(n_eff)
     return float(dbic), best_f
@@ -521,6 +525,9 @@ def _exposing_regressor(effect: str, analysis: ResidualAnalysis) -> str:
         "sensor_lag": "support_phase", "force_offset": "relative_velocity",
         "position_map": "position", "velocity_map": "relative_velocity", "time_map": "time",
         "contact_play": "time_since_reversal",
+        **{name: {"time": "time", "relative_speed": "relative_velocity",
+                  "position": "position"}[e.over]
+           for name, e in own_effects.registered().items()},
     }[effect]
     if preferred in analysis.binned:
         return preferred

@@ -60,8 +60,9 @@ from ..params import FrictionParameters, RigParameters, lugre_default_bristle_da
 from .analysis import effective_samples, uniform_spectrum
 from .driver import select
 from .fit import Metrics, _metrics
-from .model import (EFFECT_INTERNALS, MODULATION_HARMONICS, SIMULATION_EFFECTS, Model, Scales,
-                    excluded_by, forward_steps, modulation_not_applicable)
+from .model import (MODULATION_HARMONICS, Model, Scales, effect_internals, excluded_by,
+                    forward_steps, modulation_not_applicable, simulation_effects)
+from . import own_effects
 from .replay import MAX_SUBSTEPS, MIN_SAMPLES, Replayer, RigReplay, stick_phase_steps
 from .replays import prepare_replay
 from .shooting import MultipleShooting
@@ -494,7 +495,7 @@ def identify_by_simulation(train: Dataset, validation: Sequence[Dataset] = (), *
     """Fit ``law`` (+ declared effects) to ``train`` by simulating the rig, then select."""
     started = time.monotonic()
     say = progress or (lambda message: None)
-    check_law_and_effects(law, declared, SIMULATION_EFFECTS)
+    check_law_and_effects(law, declared, simulation_effects())
     for record in (train, *validation):
         check_identifiable(record)
     replay = prepare_replay(train, substeps=substeps)
@@ -576,7 +577,7 @@ def _converged_timestep(problem: SimulationProblem, train: Dataset, law: str,
     again: the simulator's error then stays below the record's noise (or ``MAX_SUBSTEPS`` is
     reached). Returns them and the scan (scales, starts) they were checked with."""
     fit_mass = not problem.train.mass_known
-    declared = tuple(e for e in SIMULATION_EFFECTS if e in declared)
+    declared = tuple(e for e in simulation_effects() if e in declared)
     scales, starts = _start(problem, law, fit_mass, declared)
     model = Model.build(law, declared, fit_mass, scales, FrictionParameters(law=law),
                         problem.state, problem.scene)
@@ -623,11 +624,11 @@ def _identify(problem: SimulationProblem, law: str, declared: Sequence[str],
          if getattr(replay, "support_still", False) else "") +
         (f", {len(problem.validation)} held-out record(s)" if problem.validation else ""))
     skipped = _not_applicable(replay, law, declared)
-    declared = tuple(e for e in SIMULATION_EFFECTS if e in declared and e not in skipped)
+    declared = tuple(e for e in simulation_effects() if e in declared and e not in skipped)
     baseline = _baseline(problem, law, declared, fit_mass, say, scan, still, refine)
     back_end = _SimulationRounds(problem, baseline.scales, baseline.local, declared,
                                  min_improvement, bic_threshold, say)
-    remaining = [e for e in SIMULATION_EFFECTS if e not in declared and e not in skipped
+    remaining = [e for e in simulation_effects() if e not in declared and e not in skipped
                  and e not in excluded_by(declared)]
     selection = select(back_end, baseline.fit, remaining, say)
     current = selection.final
@@ -1322,7 +1323,7 @@ def _candidate(problem: SimulationProblem, current: SimFit, base: SimFit, effect
     # The linearized step can overshoot (a Stribeck peak, a modulation): the best of a few
     # fractions of it, simulated in one batch, starts the fit.
     q_now = model.internal({**base.model.internal_values(base.q),
-                            **{n: start[n] for n in EFFECT_INTERNALS[effect] if n in start},
+                            **{n: start[n] for n in effect_internals(effect) if n in start},
                             **{n: _off(n, model) for n in _linear_names(effect)}})
     others = start.get(_OTHER_STARTS, [])
     start = {k: v for k, v in start.items() if k != _OTHER_STARTS}
@@ -1377,12 +1378,16 @@ def _judge(problem: SimulationProblem, current: SimFit, fit: SimFit, effect: str
 
 
 def _linear_names(effect: str) -> list[str]:
-    """An effect's coordinates that its start projects on (the others are scanned)."""
+    """An effect's coordinates that its start projects on (the others are scanned; an own
+    effect's log parameters start at their scale)."""
+    own = own_effects.registered().get(effect)
+    if own is not None:
+        return own.linear_names
     if effect == "stribeck":
         return ["static_ratio"]
     if effect == "position_ripple":
         return ["ripple_cos", "ripple_sin"]
-    return list(EFFECT_INTERNALS[effect])
+    return list(effect_internals(effect))
 
 
 def _off(name: str, model: Model) -> float:
@@ -1589,7 +1594,7 @@ def _tone_competition(problem: SimulationProblem, current: SimFit, fit: SimFit, 
         if rss < best_rss:
             best_rss, best_f = rss, float(f)
     k_tone = 2 * len(replay.channels) + 1
-    k_effect = len(EFFECT_INTERNALS[effect])
+    k_effect = len(effect_internals(effect))
     floor = problem.floor
     dbic = n_eff * math.log((fit.rss + floor) / (best_rss + floor)) + \
         (k_effect - k_tone) * math.log(n_eff)

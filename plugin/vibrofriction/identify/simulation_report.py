@@ -17,7 +17,8 @@ from ..params import RigParameters
 from ..provenance import json_text
 from .identifiability import simulation_diagnostics
 from . import residual_diagnostics
-from .model import EFFECT_FIELDS, MAP_EFFECTS, SIMULATION_EFFECTS
+from .model import (MAP_EFFECTS, effect_fields, own_map_effects, own_parameter_names,
+                    simulation_effects)
 from .report import write_folder
 from .series import listing as series_listing, simulation_series, write_series
 from .simulation import MIN_SLIPS, SimFit, SimIdentification
@@ -42,6 +43,7 @@ def parameters(result: SimIdentification, fit: SimFit) -> dict[str, float | None
     out.update({n: fit.values[n] for n in fit.model.scene})
     if "gms_spread" in fit.values:  # the coordinate the elements' lists were fitted in
         out["gms_spread"] = fit.values["gms_spread"]
+    out.update({n: fit.values[n] for n in own_parameter_names(fit.model.effects)})
     return {k: _finite(v) for k, v in out.items()}
 
 
@@ -62,7 +64,7 @@ def report_json(result: SimIdentification) -> dict[str, Any]:
                              for c, m in fit.channels.items()}}
 
     candidates = []
-    for effect in SIMULATION_EFFECTS:
+    for effect in simulation_effects():
         c = result.candidates.get(effect)
         if c is None:
             continue
@@ -157,7 +159,8 @@ def set_line(result: SimIdentification) -> str:
     p = parameters(result, result.final)
     names = ["friction_coefficient", "normal_force_N", "mass_kg"] + \
         [n for n in result.final.values if n in p and n not in ("friction_coefficient",
-                                                                 "mass_kg")]
+                                                                 "mass_kg")
+         and n not in own_parameter_names(result.final.model.effects)]
     if "normal_force_modulation" in result.final.values:
         names.append("normal_force_modulation_frequency_Hz")
     if "drive_backlash_m" in result.final.values:
@@ -166,7 +169,7 @@ def set_line(result: SimIdentification) -> str:
         # the lag is the rig dynamometer's (its sensor's time_constant), not the element's
         names = [n for n in names if n != "sensor_lag_s"]
     for effect in MAP_EFFECTS:  # a map: its knots and factors, as lists
-        if effect in result.final.model.effects:
+        if effect in (*result.final.model.effects, *own_map_effects(result.final.model.effects)):
             names += [n for n in p if n.startswith(f"{effect}_")]
     parts = [f"--law {result.law}"]
     for n in dict.fromkeys(names):
@@ -251,7 +254,7 @@ def report_markdown(result: SimIdentification) -> str:
                      "model.")
     for effect in r.selected:
         c = r.candidates[effect]
-        values = ", ".join(f"{n} = {c.fit.values[n]:.6g}" for n in EFFECT_FIELDS[effect]
+        values = ", ".join(f"{n} = {c.fit.values[n]:.6g}" for n in effect_fields(effect)
                            if n in c.fit.values)
         lines.append(f"- **{effect}** (round {c.round}): {c.reason}. {values}.")
     lines += ["", "## Candidates", "",
