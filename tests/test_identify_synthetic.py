@@ -181,7 +181,8 @@ def test_cli_writes_the_report(records, tmp_path, capsys) -> None:
         assert [v["dataset"] for v in block["validation"]] == ["asymmetry_heldout"]
         assert set(block["validation"][0]) == {"dataset", "rmse_N", "relerr_pct"}
     for candidate in report["candidates"]:
-        assert set(candidate) == {"effect", "parameters", "train", "validation", "criterion"}
+        assert set(candidate) == {"effect", "parameters", "train", "validation", "criterion",
+                                  "held_out_evidence"}
         assert candidate["effect"] in INVERSE_EFFECTS
     assert report["ringing_after_reversals"] is None  # the rig's vibration only
     assert report["final"]["train"]["relerr_pct"] < report["baseline"]["train"]["relerr_pct"]

@@ -130,6 +130,11 @@ def _effect(**changes) -> LevelEffect:
     (dict(parameters=(OwnParameter("bump_speed", 1e-4, 1.0, 1e-3, log=True),)),
      "at least one linear parameter"),
     (dict(factor=lambda v, p: 1.1 + p["bump_height"] * v), "not 1 with the linear"),
+    # the rig's and the report's names, the fit's coordinate prefixes, repeats
+    (dict(parameters=(OwnParameter("normal_force_N", -1, 1, 0.1),)), "is taken"),
+    (dict(parameters=(OwnParameter("time_map_cool", -1, 1, 0.1),)), "starts like"),
+    (dict(parameters=(OwnParameter("bump_height", -1, 1, 0.1),
+                      OwnParameter("bump_height", -1, 1, 0.1))), "repeat"),
 ])
 def test_a_bad_own_effect_is_refused_with_what_to_change(changes, message):
     with pytest.raises(InputError, match=message):
@@ -144,3 +149,44 @@ def test_a_factor_that_turns_non_positive_is_named():
             effect.factors(np.array([0.0, 1e-3]), {"bump_height": -1.5})
     finally:
         own_effects.unregister("bump")
+
+
+def test_a_file_that_fails_half_way_leaves_nothing_registered(tmp_path):
+    half = tmp_path / "half.py"
+    half.write_text(
+        "from vibrofriction.identify.own_effects import LevelEffect, OwnParameter, "
+        "register_effect\n"
+        "register_effect(LevelEffect('halfway', 'time', (OwnParameter('halfway_a', -1, 1, 0.1),),"
+        " lambda t, p: 1 + p['halfway_a'] * t))\n"
+        "raise RuntimeError('later')\n")
+    for _ in range(2):  # (the second time the same name is free again)
+        with pytest.raises(InputError, match="RuntimeError: later"):
+            own_effects.load_effects_file(half)
+        assert "halfway" not in own_effects.registered()
+
+
+def test_the_choice_ranks_by_the_test_and_takes_a_candidate_only_the_held_out_records_justify():
+    from types import SimpleNamespace
+
+    from vibrofriction.identify.driver import _choose
+
+    def candidate(name, delta_bic, held, ratio):
+        return SimpleNamespace(effect=name, delta_bic=delta_bic, held_out_evidence=held,
+                               validation_log_ratio=ratio, justified=True)
+
+    # a training dBIC above 0 that the held-out records carry past the threshold
+    only_held = candidate("offset", 3.0, -20.0, -0.3)
+    assert _choose([only_held])[0] is only_held
+    # ranked by the sum the test compares: -17 beats -12
+    assert _choose([only_held, candidate("viscous", -12.0, 0.0, -0.05)])[0] is only_held
+
+
+def test_a_declared_harmonic_without_a_vibration_is_refused():
+    from vibrofriction.data.datasets import Dataset
+    record = synthetic.generate(replace(synthetic.Scenario(), duration_s=0.02), name="still")
+    # a record of a machine whose support does not vibrate: no support motion measured
+    record = Dataset(name="still", metadata=record.metadata,
+                     columns={k: v for k, v in record.columns.items()
+                              if not k.startswith("support_")})
+    with pytest.raises(InputError, match="normal_force_modulation_2f: not applicable"):
+        identify(record, law="lugre", declared=("normal_force_modulation_2f",))

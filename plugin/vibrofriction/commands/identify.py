@@ -19,15 +19,16 @@ from .common import (UsageError, check_output_folder, check_replaceable_folder, 
                      parse_overrides, write_json)
 from ..data.datasets import Dataset, all_or_nothing, read_dataset
 from ..identify import MIN_IMPROVEMENT, identify
-from ..identify.model import IDENTIFIABLE_LAWS, INVERSE_EFFECTS, RIG_EFFECTS
+from ..identify.model import IDENTIFIABLE_LAWS, RIG_EFFECTS, inverse_effects
 from ..identify.own_effects import load_effects_file, unregister
 from ..identify.report import report_json, rig_replay, write_report
 
 HELP = ("fit a friction law to a measured record (dataset format), trace the residual to "
         "missing effects (viscous, stribeck, asymmetry, position_ripple, "
-        "normal_force_modulation, drive_damping, sensor_lag, force_offset, and the free-form "
+        "normal_force_modulation (also at 2, 3, 4 f: normal_force_modulation_2f, ...), "
+        "drive_damping, sensor_lag, force_offset, and the free-form "
         "position_map, velocity_map, time_map; by simulation also backlash; on the inverse "
-        "path also contact_play), select those the "
+        "path also contact_play; your own with --effects-from), select those the "
         "data justify, and write report.json, report.md, each record's measured, predicted "
         "and residual series and figures")
 
@@ -113,18 +114,18 @@ def run(args: argparse.Namespace) -> int:
     try:
         for path in args.effects_from:
             own += load_effects_file(path)
-        return _run(args, own)
+        return _run(args)
     finally:  # (registered for this run: an in-process caller's next run starts without them)
         for name in own:
             unregister(name)
 
 
-def _run(args: argparse.Namespace, own: list[str]) -> int:
+def _run(args: argparse.Namespace) -> int:
     started = time.monotonic()
     declared = [e.strip() for e in args.declared.split(",") if e.strip()]
     # (each path then checks the effects it traces: the maps are the inverse path's, backlash
     # the simulation path's)
-    known = INVERSE_EFFECTS + RIG_EFFECTS + tuple(own)
+    known = inverse_effects() + RIG_EFFECTS  # (own effects: this run's and any registered)
     unknown = [e for e in declared if e not in known]
     if unknown:
         raise UsageError(f"--with: unknown effect(s) {', '.join(unknown)}; use: "

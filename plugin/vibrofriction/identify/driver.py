@@ -49,6 +49,9 @@ class Judged(Protocol):
     def validation_log_ratio(self) -> float | None: ...  # mean ln(RMSE with / without)
 
     @property
+    def held_out_evidence(self) -> float: ...  # added to delta_bic (``held_out_evidence``)
+
+    @property
     def fit(self): ...  # the current model plus the effect (or the current model, unfitted)
 
 
@@ -84,6 +87,25 @@ class Selection(Generic[C, F]):
     candidates: dict[str, C]  # the last evaluation of each effect
     rounds: list[list[C]]
     selected: list[str]
+
+
+def held_out_evidence(n_eff: float, train_samples: int, held_out_samples: Sequence[int],
+                      larger: Sequence, smaller: Sequence) -> float:
+    """The held-out records' evidence for the larger model on the dBIC scale (<= 0; 0 where
+    they do not favour it): sum over records of n_eff_r ln(RMSE_larger^2 / RMSE_smaller^2),
+    n_eff_r = n_eff n_r / n_train (a held-out record of the training record's kind).
+
+    Out-of-sample, the likelihood ratio needs no penalty for the parameters: it adds to the
+    training record's dBIC. It matters where the training residual is slow and n_eff small
+    (a machine in closed loop: EMPS's residual of 12420 samples holds about 13 independent
+    ones, and an offset that lowers the force error by 37 % on both halves had a dBIC of
+    -9.5 alone); with a white residual the training dBIC decides anyway."""
+    total = 0.0
+    for n, a, b in zip(held_out_samples, larger, smaller):
+        if a.rmse_N > 0 and b.rmse_N > 0:
+            total += max(n_eff, 2.0) * n / max(train_samples, 1) * 2.0 * math.log(
+                a.rmse_N / b.rmse_N)
+    return min(total, 0.0)
 
 
 def select(back_end: BackEnd[C, F], start: F, effects: Sequence[str],
@@ -122,12 +144,18 @@ def select(back_end: BackEnd[C, F], start: F, effects: Sequence[str],
 
 
 def _choose(justified: Sequence[C]) -> tuple[C, str]:
-    """The justified candidate the round selects, and why when not the dBIC-best."""
-    best = min(justified, key=lambda c: c.delta_bic)
+    """The justified candidate the round selects, and why when not the dBIC-best (the
+    criterion: the training dBIC with the held-out records' evidence, as the test)."""
+    def criterion(c: C) -> float:
+        return c.delta_bic + c.held_out_evidence
+
+    best = min(justified, key=criterion)
     if best.validation_log_ratio is None:
         return best, ""
     held = [c for c in justified if c.validation_log_ratio is not None
-            and c.delta_bic <= ALIKE_FRACTION * best.delta_bic]
+            and criterion(c) <= ALIKE_FRACTION * criterion(best)]
+    if not held:  # (justified: the criterion is below the threshold, < 0, so best is in)
+        return best, ""
     clearer = min(held, key=lambda c: c.validation_log_ratio)
     gain = 1.0 - math.exp(clearer.validation_log_ratio - best.validation_log_ratio)
     if clearer is best or gain < HELD_OUT_MARGIN:
@@ -136,4 +164,4 @@ def _choose(justified: Sequence[C]) -> tuple[C, str]:
                      "the training record's first choice)")
 
 
-__all__ = ["HELD_OUT_MARGIN", "ALIKE_FRACTION", "select", "Selection", "BackEnd", "Judged"]
+__all__ = ["HELD_OUT_MARGIN", "ALIKE_FRACTION", "held_out_evidence", "select", "Selection", "BackEnd", "Judged"]

@@ -355,10 +355,18 @@ def own_parameter_names(effects: Sequence[str]) -> list[str]:
     return [p.name for e in effects if e in own for p in own[e].parameters]
 
 
+# prefixes of the fit's internal coordinates (an own parameter named so would be taken for one)
+RESERVED_PREFIXES = ("position_map_", "velocity_map_", "time_map_", "ripple_", "modulation_")
+
+
 def taken_parameter_names() -> set[str]:
-    """Names an own effect's parameter may not take (the fit's and the vocabulary's)."""
+    """Names an own effect's parameter may not take (the fit's and the vocabulary's: the
+    friction's and the rig's parameters, the reported values)."""
     from dataclasses import fields as dataclass_fields
+    from ..params import RigParameters
     taken = {f.name for f in dataclass_fields(FrictionParameters)}
+    taken.update(f.name for f in dataclass_fields(RigParameters))
+    taken.update(("normal_force_N", "drive_backlash_centre_m", "friction_coefficient_unit"))
     for names in (*EFFECT_INTERNALS.values(), *EFFECT_FIELDS.values(),
                   *LAW_PARAMETERS.values()):
         taken.update(names)

@@ -111,7 +111,14 @@ def register_effect(effect: LevelEffect) -> LevelEffect:
     if not effect.parameters or not effect.linear_names:
         raise InputError(f"{where}: needs at least one linear parameter (0 switches it off)")
     taken = model.taken_parameter_names()
+    names = [p.name for p in effect.parameters]
+    if len(set(names)) < len(names):
+        raise InputError(f"{where}: parameter names repeat ({', '.join(names)}); make them "
+                         "distinct")
     for p in effect.parameters:
+        if p.name.startswith(model.RESERVED_PREFIXES):
+            raise InputError(f"{where}: parameter name {p.name!r} starts like the fit's own "
+                             f"({', '.join(model.RESERVED_PREFIXES)}); choose another")
         if p.name in taken and p.name not in (q.name for q in _own_parameters(effect.name)):
             raise InputError(f"{where}: parameter name {p.name!r} is taken; choose another")
         if not (math.isfinite(p.lower) and math.isfinite(p.upper) and p.lower < p.upper):
@@ -153,11 +160,18 @@ def load_effects_file(path: str | Path) -> list[str]:
         raise InputError(f"--effects-from {path}: no such file; give a Python file that calls "
                          "vibrofriction.identify.own_effects.register_effect")
     before = set(_REGISTERED)
+
+    def forget_new() -> None:  # (a file that fails half-way leaves nothing registered)
+        for name in [n for n in _REGISTERED if n not in before]:
+            unregister(name)
+
     try:
         runpy.run_path(str(path), run_name="vibrofriction_own_effects")
     except InputError as error:
+        forget_new()
         raise InputError(f"--effects-from {path}: {error}") from None
     except Exception as error:  # a user's file: say where it failed, in one line
+        forget_new()
         raise InputError(f"--effects-from {path}: the file failed: "
                          f"{type(error).__name__}: {error}") from None
     added = [n for n in _REGISTERED if n not in before]

@@ -55,7 +55,8 @@ def report_json(result: Identification) -> dict[str, Any]:
         candidates.append({"effect": effect, "parameters": parameters(result, c.fit),
                            "train": c.fit.train.as_dict(False),
                            "validation": [m.as_dict(True) for m in c.fit.validation],
-                           "criterion": _finite(c.delta_bic)})
+                           "criterion": _finite(c.delta_bic),
+                           "held_out_evidence": _finite(c.held_out_evidence)})
     return {
         "law": result.law,
         "method": result.settings.get("method", "inverse"),

@@ -36,7 +36,7 @@ from ..errors import InputError
 from ..params import FrictionParameters
 from ..vocabulary import TERMS_BY_NAME
 from .analysis import ResidualAnalysis, analyse
-from .driver import select
+from .driver import held_out_evidence, select
 from .fit import FitResult, Problem
 from .model import (IDENTIFIABLE_LAWS, INVERSE_EFFECTS, MODULATION_HARMONICS, RIG_EFFECTS,
                     Model, Scales, effect_internals, excluded_by, exclusive_groups,
@@ -72,6 +72,8 @@ class Candidate:
     justified: bool
     reason: str
     seconds: float = 0.0
+    # the held-out records' evidence, added to delta_bic for the test (driver.held_out_evidence)
+    held_out_evidence: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -203,6 +205,10 @@ def _not_applicable(record: Record, law: str, declared: Sequence[str]) -> dict[s
     if np.ptp(record.relative_position_m) < 2 * _min_wavelength(record):
         out["position_ripple"] = "the record does not travel two ripple wavelengths"
     for effect in declared:
+        if MODULATION_HARMONICS.get(effect, 1) > 1 and effect in out:
+            # (a harmonic has no frequency without the vibration's; the fundamental keeps
+            # its old meaning, the modulation frequency 0: the rig's vibration frequency)
+            raise InputError(f"--with {effect}: not applicable to this record: {out[effect]}")
         out.pop(effect, None)
     return out
 
@@ -341,12 +347,15 @@ def _candidate(problem: Problem, current: FitResult, effect: str, scales: Scales
     if fit.validation:
         val_ratio = float(np.mean([math.log(a.rmse_N / b.rmse_N)
                                    for a, b in zip(fit.validation, current.validation)]))
+    held = held_out_evidence(n_eff, problem.train.n, [r.n for r in problem.validation],
+                             fit.validation, current.validation)
     tone_dbic = tone_frequency = None
     if effect == "position_ripple" or effect in MODULATION_HARMONICS:
         tone_dbic, tone_frequency = _tone_competition(problem, current, fit, effect)
     reasons = []
-    if not delta_bic < bic_threshold:
-        reasons.append(f"dBIC {delta_bic:.1f} not below {bic_threshold:g}")
+    if not delta_bic + held < bic_threshold:
+        reasons.append(f"dBIC {delta_bic:.1f}" + (f" + held out {held:.1f}" if held else "")
+                       + f" not below {bic_threshold:g}")
     if not drop >= min_improvement:
         reasons.append(f"RMSE falls only {100 * drop:.2f} % (< {100 * min_improvement:g} %)")
     if val_ratio is not None and not val_ratio < 0:
@@ -357,12 +366,13 @@ def _candidate(problem: Problem, current: FitResult, effect: str, scales: Scales
     return Candidate(effect=effect, fit=fit, delta_bic=delta_bic, train_drop=drop,
                      validation_log_ratio=val_ratio, tone_delta_bic=tone_dbic,
                      tone_frequency_Hz=tone_frequency, round=index, justified=not reasons,
-                     reason="; ".join(reasons) if reasons else _why(effect, delta_bic, drop),
-                     seconds=seconds)
+                     reason="; ".join(reasons) if reasons else _why(delta_bic, held, drop),
+                     seconds=seconds, held_out_evidence=held)
 
 
-def _why(effect: str, delta_bic: float, drop: float) -> str:
-    return f"dBIC {delta_bic:.1f}, training RMSE -{100 * drop:.1f} %"
+def _why(delta_bic: float, held: float, drop: float) -> str:
+    return f"dBIC {delta_bic:.1f}" + (f" + held out {held:.1f}" if held else "") + \
+        f", training RMSE -{100 * drop:.1f} %"
 
 
 def _effect_start(problem: Problem, current: FitResult, effect: str,

@@ -39,7 +39,8 @@ justifies. A candidate effect is justified when
    n_eff from the autocorrelation of the current model's residual and F the simulator's own
    error: the squared weighted difference between the baseline replayed at the chosen
    timestep and at half of it, so that no effect is selected for explaining discretization
-   error;
+   error; plus the held-out records' evidence where they favour the effect
+   (``driver.held_out_evidence``);
 2. the weighted RMSE (with F) falls by at least ``MIN_IMPROVEMENT``;
 3. held-out records' RMSE falls on average;
 4. a periodic effect beats an additive tone at its dominant frequency (same dBIC test).
@@ -58,7 +59,7 @@ from ..data.datasets import Dataset
 from ..errors import InputError
 from ..params import FrictionParameters, RigParameters, lugre_default_bristle_damping
 from .analysis import effective_samples, uniform_spectrum
-from .driver import select
+from .driver import held_out_evidence, select
 from .fit import Metrics, _metrics
 from .model import (MODULATION_HARMONICS, Model, Scales, effect_internals, excluded_by,
                     forward_steps, modulation_not_applicable, simulation_effects)
@@ -227,6 +228,8 @@ class SimCandidate:
     seconds: float
     screen_delta_bic: float | None = None  # linearized at the round's model
     fitted: bool = True  # False: screened out, ``fit`` is the round's model
+    # the held-out records' evidence, added to delta_bic for the test (driver.held_out_evidence)
+    held_out_evidence: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -1010,6 +1013,11 @@ def _drop_if_unneeded(problem: SimulationProblem, current: SimFit, effect: str,
     keep_dbic = n_eff * math.log((current.rss + problem.floor) /
                                  (without.rss + problem.floor)) + \
         (current.k - reduced.k) * math.log(n_eff)
+    # (the held-out records count here as in the forward step, or an effect they justified
+    # would be dropped at once)
+    keep_dbic += held_out_evidence(n_eff, len(current.residual),
+                                   [r.n for r in problem.validation], current.validation,
+                                   without.validation)
     if keep_dbic < bic_threshold:
         return current
     selected.remove(effect)  # (and not a candidate again: no cycles)
@@ -1063,6 +1071,10 @@ def _not_applicable(replay: RigReplay, law: str, declared: Sequence[str]) -> dic
             reason, replay.rig.vibration_frequency_Hz, dt).items():
         out.setdefault(effect, why)
     for effect in declared:
+        if MODULATION_HARMONICS.get(effect, 1) > 1 and effect in out:
+            # (a harmonic has no frequency without the vibration's; the fundamental keeps
+            # its old meaning, the modulation frequency 0: the rig's vibration frequency)
+            raise InputError(f"--with {effect}: not applicable to this record: {out[effect]}")
         out.pop(effect, None)
     return out
 
@@ -1354,12 +1366,16 @@ def _judge(problem: SimulationProblem, current: SimFit, fit: SimFit, effect: str
     if fit.validation:
         val_ratio = float(np.mean([math.log(a.rmse_N / b.rmse_N)
                                    for a, b in zip(fit.validation, current.validation)]))
+    # (n_eff is of the residual of every channel stacked; the held-out RMSE, the primary's)
+    held = held_out_evidence(n_eff, len(current.residual), [r.n for r in problem.validation],
+                             fit.validation, current.validation)
     tone_dbic = tone_frequency = None
     if effect == "position_ripple" or effect in MODULATION_HARMONICS:
         tone_dbic, tone_frequency = _tone_competition(problem, current, fit, effect, n_eff)
     reasons = []
-    if not delta_bic < bic_threshold:
-        reasons.append(f"dBIC {delta_bic:.1f} not below {bic_threshold:g}")
+    if not delta_bic + held < bic_threshold:
+        reasons.append(f"dBIC {delta_bic:.1f}" + (f" + held out {held:.1f}" if held else "")
+                       + f" not below {bic_threshold:g}")
     if not drop >= min_improvement:
         reasons.append(f"weighted RMSE falls only {100 * drop:.2f} % "
                        f"(< {100 * min_improvement:g} %)")
@@ -1369,12 +1385,13 @@ def _judge(problem: SimulationProblem, current: SimFit, fit: SimFit, effect: str
         reasons.append(f"no better than an additive tone at {tone_frequency:.4g} Hz "
                        f"(dBIC {tone_dbic:.1f})")
     reason = "; ".join(reasons) if reasons else \
-        f"dBIC {delta_bic:.1f}, weighted RMSE -{100 * drop:.1f} %"
+        f"dBIC {delta_bic:.1f}" + (f" + held out {held:.1f}" if held else "") + \
+        f", weighted RMSE -{100 * drop:.1f} %"
     return SimCandidate(effect=effect, fit=fit, delta_bic=delta_bic, train_drop=drop,
                         validation_log_ratio=val_ratio, tone_delta_bic=tone_dbic,
                         tone_frequency_Hz=tone_frequency, round=index, justified=not reasons,
                         reason=reason, seconds=time.monotonic() - started,
-                        screen_delta_bic=screen_dbic)
+                        screen_delta_bic=screen_dbic, held_out_evidence=held)
 
 
 def _linear_names(effect: str) -> list[str]:

@@ -73,6 +73,7 @@ def report_json(result: SimIdentification) -> dict[str, Any]:
                            "validation": [m.as_dict(True) for m in c.fit.validation],
                            "criterion": _finite(c.delta_bic) if c.fitted else None,
                            "screen_criterion": _finite(c.screen_delta_bic),
+                           "held_out_evidence": _finite(c.held_out_evidence),
                            "fitted": c.fitted, "justified": c.justified,
                            "reason": c.reason})
     return {
