@@ -8,7 +8,8 @@ multiplied by a factor that no vocabulary parameter makes (the reference's `leve
 - `drift`: the level rising 12 % over the record (heating, run-in);
 - `speed_shape`: a level that weakens to 0.85 at 2 mm/s and then rises linearly (not the
   Stribeck exponential);
-- `load_2f`: the normal load modulated 10 % at twice the vibration frequency;
+- `load_2f`: the normal load modulated 30 % at twice the vibration frequency (10 % hardly shows in a
+  position-only record: held out 0.853 % against the clean 0.828 %);
 - `clean`: none.
 
 Each is identified with LuGre, nothing declared, trained on one record and held out on another
