@@ -70,6 +70,20 @@ def modulation_not_applicable(reason: str | None, frequency_Hz: float | None = N
             for e, n in MODULATION_HARMONICS.items() if n * frequency_Hz > 0.8 * nyquist}
 
 
+def without_declared(not_applicable: dict[str, str], declared: Sequence[str]) -> dict[str, str]:
+    """``not_applicable`` (effect -> why not) less the declared effects (a declaration
+    overrides, both paths); InputError for a declared harmonic of the load modulation that
+    does not apply (it has no frequency without the vibration's; the fundamental keeps its
+    meaning, the modulation frequency 0: the rig's vibration frequency)."""
+    from ..errors import InputError
+    out = dict(not_applicable)
+    for effect in declared:
+        if MODULATION_HARMONICS.get(effect, 1) > 1 and effect in out:
+            raise InputError(f"--with {effect}: not applicable to this record: {out[effect]}")
+        out.pop(effect, None)
+    return out
+
+
 def modulation_harmonic(effects: Sequence[str]) -> int:
     """n of the normal-load modulation among ``effects`` (0: none)."""
     return next((MODULATION_HARMONICS[e] for e in effects if e in MODULATION_HARMONICS), 0)
@@ -633,5 +647,5 @@ ProgressFn = Callable[[str], None]
 __all__ = ["BUILT_IN_EFFECTS", "inverse_effects", "simulation_effects", "effect_internals",
            "effect_fields", "exclusive_groups", "own_map_effects", "own_parameter_names",
            "taken_parameter_names", "IDENTIFIABLE_LAWS", "MODULATION_HARMONICS", "EXCLUSIVE_GROUPS", "excluded_by",
-           "modulation_harmonic", "modulation_not_applicable", "gms_elements", "GMS_FITTED_ELEMENTS", "EFFECTS", "MAP_EFFECTS", "CONTACT_EFFECTS", "INVERSE_EFFECTS", "LAW_PARAMETERS", "EFFECT_FIELDS", "EFFECT_INTERNALS", "Param", "Scales",
+           "modulation_harmonic", "modulation_not_applicable", "without_declared", "gms_elements", "GMS_FITTED_ELEMENTS", "EFFECTS", "MAP_EFFECTS", "CONTACT_EFFECTS", "INVERSE_EFFECTS", "LAW_PARAMETERS", "EFFECT_FIELDS", "EFFECT_INTERNALS", "Param", "Scales",
            "Model", "first_order_lag", "forward_steps"]

@@ -40,7 +40,7 @@ from .driver import held_out_evidence, select
 from .fit import FitResult, Problem
 from .model import (IDENTIFIABLE_LAWS, INVERSE_EFFECTS, MODULATION_HARMONICS, RIG_EFFECTS,
                     Model, Scales, effect_internals, excluded_by, exclusive_groups,
-                    inverse_effects, modulation_not_applicable)
+                    inverse_effects, modulation_not_applicable, without_declared)
 from . import own_effects
 from .record import Record, prepare
 from .replay import MIN_SAMPLES
@@ -204,13 +204,7 @@ def _not_applicable(record: Record, law: str, declared: Sequence[str]) -> dict[s
                                f"({', '.join(_PLAY_LAWS)}), not {law}")
     if np.ptp(record.relative_position_m) < 2 * _min_wavelength(record):
         out["position_ripple"] = "the record does not travel two ripple wavelengths"
-    for effect in declared:
-        if MODULATION_HARMONICS.get(effect, 1) > 1 and effect in out:
-            # (a harmonic has no frequency without the vibration's; the fundamental keeps
-            # its old meaning, the modulation frequency 0: the rig's vibration frequency)
-            raise InputError(f"--with {effect}: not applicable to this record: {out[effect]}")
-        out.pop(effect, None)
-    return out
+    return without_declared(out, declared)
 
 
 def check_law_and_effects(law: str, declared: Sequence[str],

@@ -62,7 +62,8 @@ from .analysis import effective_samples, uniform_spectrum
 from .driver import held_out_evidence, select
 from .fit import Metrics, _metrics
 from .model import (MODULATION_HARMONICS, Model, Scales, effect_internals, excluded_by,
-                    forward_steps, modulation_not_applicable, simulation_effects)
+                    forward_steps, modulation_not_applicable, simulation_effects,
+                    without_declared)
 from . import own_effects
 from .replay import MAX_SUBSTEPS, MIN_SAMPLES, Replayer, RigReplay, stick_phase_steps
 from .replays import prepare_replay
@@ -1070,13 +1071,7 @@ def _not_applicable(replay: RigReplay, law: str, declared: Sequence[str]) -> dic
     for effect, why in modulation_not_applicable(
             reason, replay.rig.vibration_frequency_Hz, dt).items():
         out.setdefault(effect, why)
-    for effect in declared:
-        if MODULATION_HARMONICS.get(effect, 1) > 1 and effect in out:
-            # (a harmonic has no frequency without the vibration's; the fundamental keeps
-            # its old meaning, the modulation frequency 0: the rig's vibration frequency)
-            raise InputError(f"--with {effect}: not applicable to this record: {out[effect]}")
-        out.pop(effect, None)
-    return out
+    return without_declared(out, declared)
 
 
 # ------------------------------------------------------------------------------- starting
