@@ -42,6 +42,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from vibrofriction import sim
 from vibrofriction.oracle import reference
 from vibrofriction.rigs import rig as rig_module
 from vibrofriction.params import LAWS, RigParameters
@@ -186,7 +187,7 @@ def main(argv: list[str] | None = None) -> int:
     start = time.perf_counter()
     result = {"master": master_curves(args.quick, log, args.scipy),
               "throughput": throughput(args.quick, log) if args.throughput else {"rows": []},
-              "cpu_count": rig_module._cpu_count(), "mujoco": mujoco.__version__}
+              "cpu_count": sim.cpu_count(), "mujoco": mujoco.__version__}
     result["wall_s"] = time.perf_counter() - start
     print(markdown(result))
     if args.json:

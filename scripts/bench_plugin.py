@@ -34,6 +34,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
+from vibrofriction import sim
 import vibrofriction
 from vibrofriction.rigs import rig as rig_module
 from vibrofriction.params import LAWS, RigParameters, default_friction
@@ -94,7 +95,7 @@ def speed(quick: bool) -> dict:
     models["Python callback (mjcb_act_dyn), dahl"] = (
         python_law_spec(rig, dahl, timestep_s=TIMESTEP_S).compile(),
         lambda: act_dyn_callback(dahl_zdot, contact))
-    runs = {name: (model, mujoco.MjData(model), rig_module.initial_state(model)[None])
+    runs = {name: (model, mujoco.MjData(model), sim.initial_state(model)[None])
             for name, (model, _) in models.items()}
 
     def run(name: str) -> float:
@@ -159,7 +160,7 @@ def _frictionloss_mean(rig: RigParameters, timestep_s: float, duration_s: float,
     model = _frictionloss_model(rig, timestep_s)
     nstep = int(round(duration_s / timestep_s))
     _, sensordata = mj_rollout.rollout(model, mujoco.MjData(model),
-                                       rig_module.initial_state(model)[None], nstep=nstep)
+                                       sim.initial_state(model)[None], nstep=nstep)
     drive = sensordata[0][:, model.sensor_adr[model.sensor("drive_force").id]]
     t = np.arange(nstep) * timestep_s
     return summarize(t, drive, drive, 1 / rig.vibration_frequency_Hz, settle_s).mean_drive_force_N

@@ -52,6 +52,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
+from vibrofriction import sim
 import vibrofriction
 from vibrofriction.rigs import rig as rig_module
 from vibrofriction.robots import scenes
@@ -268,7 +269,7 @@ def rig_copies(n: int, rig: RigParameters, timestep_s: float,
 def _settled_state(model: mujoco.MjModel, nstep: int, label: str) -> np.ndarray:
     """Full physics state after nstep steps from rest."""
     data = mujoco.MjData(model)
-    state, _ = mj_rollout.rollout(model, data, rig_module.initial_state(model)[None],
+    state, _ = mj_rollout.rollout(model, data, sim.initial_state(model)[None],
                                   nstep=nstep)
     _check_warnings(data, label)
     return state[0, -1]

@@ -22,7 +22,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from vibrofriction.rigs import rig as rig_module
+from vibrofriction import sim
 from vibrofriction.data.convert import convert_emps
 from vibrofriction.identify.machine_replay import MachineReplay, closed_loop_errors
 from vibrofriction.identify.replay import Replayer
@@ -41,7 +41,7 @@ class Convention(MachineReplay):
     def spec(self, rig, friction, probes=True, scene_values=None) -> mujoco.MjSpec:
         spec = super().spec(rig, friction, probes, scene_values)
         controller = next(p for p in spec.plugins if p.name == self.scene.controller)
-        rig_module.set_plugin_config(spec, self.scene.controller,
+        sim.set_plugin_config(spec, self.scene.controller,
                                      {**dict(controller.config), **self.overrides})
         return spec
 

@@ -107,6 +107,7 @@ def _child(model: str, nstep: int) -> None:
     import mujoco
     from mujoco import rollout
 
+    from vibrofriction import sim
     from vibrofriction.rigs import rig as rig_module
     from vibrofriction.params import RigParameters, default_friction
     from vibrofriction.rigs.python_law import bare_rig_spec
@@ -128,7 +129,7 @@ def _child(model: str, nstep: int) -> None:
         spec.delete(spec.sensor("friction_state"))  # the element alone, as bench_plugin.py
         compiled = spec.compile()
     data = mujoco.MjData(compiled)
-    rollout.rollout(compiled, data, rig_module.initial_state(compiled, data)[None], nstep=nstep)
+    rollout.rollout(compiled, data, sim.initial_state(compiled, data)[None], nstep=nstep)
 
 
 def _instructions_by_library(model: str, nstep: int, workdir: Path,
@@ -218,7 +219,7 @@ def _save_push_windows(scene: str, workdir: Path) -> tuple[dict[str, Path], int]
 def _robot_scenes(workdir: Path) -> dict:
     import bench_scaling
 
-    from vibrofriction.laws._mujoco_plugins import library_path
+    from vibrofriction.laws import library_path
 
     def library_stamp() -> tuple[int, int]:
         status = library_path().stat()

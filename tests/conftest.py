@@ -14,7 +14,7 @@ from mujoco import rollout as mj_rollout
 
 import vibrofriction
 from vibrofriction.params import PAPER_NORMAL_FORCE_N, RigParameters
-from vibrofriction.rigs.rig import initial_state, sensor_columns
+from vibrofriction.sim import initial_state, sensor_columns
 
 # Friction bound of the paper rig: mu = 0.2 (params.py) times F_N = 55.2 N (paper, section 4).
 PAPER_FRICTION_BOUND_N = 0.2 * PAPER_NORMAL_FORCE_N

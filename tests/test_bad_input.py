@@ -260,10 +260,10 @@ def test_sigterm_while_writing_leaves_the_old_folder_and_no_temporary(tmp_path):
 
 
 def test_a_mujoco_version_mismatch_is_one_line_exit_2(tmp_path, monkeypatch, capsys):
-    from vibrofriction import _build_info
+    from vibrofriction import build_info
     from vibrofriction.laws import _native
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr(_build_info, "MUJOCO_VERSION", "0.0.1")
+    monkeypatch.setattr(build_info, "MUJOCO_VERSION", "0.0.1")
     monkeypatch.setattr(_native, "_library", None)  # as in a fresh process: load() checks
     _one_line_exit_2(capsys, cli.main(["simulate", *SHORT]),
                      "compiled against MuJoCo 0.0.1 but MuJoCo")
@@ -309,9 +309,9 @@ def test_an_unreachable_dask_scheduler_is_one_message(monkeypatch, capsys):
 
 
 def test_info_shows_the_versions_when_the_plugins_cannot_load(tmp_path, monkeypatch):
-    from vibrofriction import _build_info
+    from vibrofriction import build_info
     from vibrofriction.laws import _native
-    monkeypatch.setattr(_build_info, "MUJOCO_VERSION", "0.0.1")
+    monkeypatch.setattr(build_info, "MUJOCO_VERSION", "0.0.1")
     monkeypatch.setattr(_native, "_library", None)  # as in a fresh process: load() checks
     path = tmp_path / "info.json"
     assert cli.main(["info", "--json", str(path)]) == 0

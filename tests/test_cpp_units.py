@@ -1,7 +1,8 @@
 """C++ unit tests of the plugin's internals (plugin/cpp/tests/*_test.cc), compiled here against
 the checkout's sources and the installed MuJoCo's headers and library, then run: each exits 0
 when every check held. Each test names the library sources it needs on a `// sources:` line
-(paths relative to plugin/cpp, e.g. laws/friction_law.cc).
+(paths relative to plugin/cpp, e.g. laws/friction_law.cc). The vocabulary's header is made here as
+the build makes it (plugin/build_hooks/vocabulary_header.py).
 CMake builds and registers the same tests with ctest (-DVIBROFRICTION_BUILD_TESTS=ON)."""
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import os
 import re
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import mujoco
@@ -41,8 +43,14 @@ def test_cpp_unit(source: Path, tmp_path: Path) -> None:
     if not library:
         pytest.skip(f"no libmujoco.so.* in {package} (this test links the Linux library)")
     binary = tmp_path / source.stem
+    generated = tmp_path / "generated"
+    made = subprocess.run([sys.executable, str(ROOT / "plugin" / "build_hooks" /
+                                               "vocabulary_header.py"),
+                           str(generated / "vocabulary.h")], capture_output=True, text=True)
+    assert made.returncode == 0, made.stderr
     build = subprocess.run(
-        [_compiler(), "-O1", "-std=c++17", f"-I{CPP}", f"-I{Path(mujoco.HEADERS_DIR).parent}",
+        [_compiler(), "-O1", "-std=c++17", f"-I{CPP}", f"-I{generated}",
+         f"-I{Path(mujoco.HEADERS_DIR).parent}",
          str(source), *sources, f"-L{package}", f"-l:{Path(library[0]).name}",
          f"-Wl,-rpath,{package}", "-o", str(binary)],
         capture_output=True, text=True, timeout=300)

@@ -15,6 +15,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from vibrofriction import sim
 import vibrofriction
 from vibrofriction import cli
 from vibrofriction.rigs import rig
@@ -81,7 +82,7 @@ def test_motion_follows_ctrl_displacement_exactly() -> None:
 def test_motion_refuses_ctrl_displacement_with_a_sine() -> None:
     vibrofriction.load()
     spec = mujoco.MjSpec.from_file(str(rig.scene_path("dahl")))
-    rig.set_plugin_config(spec, "table_shaker", {"displacement_from_ctrl": "true",
+    sim.set_plugin_config(spec, "table_shaker", {"displacement_from_ctrl": "true",
                                                  "frequency": "4000"})
     with pytest.raises(ValueError, match="displacement_from_ctrl"):
         spec.compile()

@@ -8,7 +8,10 @@ subpackage's ``__init__``. (The package's own ``__init__``, which every import o
 runs, loads the plugin library; it is not the oracle's code and is left out.) Within
 identification (``vibrofriction.identify``) no module imports, directly or through others,
 lazily or not, one that imports it: a general module (the rig's replay) does not reach its
-specialisation (a machine's), and its package map names every module."""
+specialisation (a machine's), and its package map names every module. The same holds for the
+whole package: no module reaches itself through its imports. And no module uses another's
+private name (``_name``), nor a private module (``laws._native``) from outside its package:
+what one part offers another is public, named and documented."""
 from __future__ import annotations
 
 import ast
@@ -81,7 +84,7 @@ def _modules(subpackage: str) -> list[str]:
 NATIVE = ("vibrofriction.laws", "vibrofriction.rigs", "vibrofriction.robots")
 # the shared ground every layer may use
 FOUNDATION = {"vibrofriction.params", "vibrofriction.vocabulary", "vibrofriction.errors",
-              "vibrofriction._build_info"}
+              "vibrofriction.build_info"}
 
 
 def _is_native(name: str) -> bool:
@@ -171,3 +174,101 @@ def test_the_identification_package_map_lists_every_module() -> None:
     listed = re.findall(r"^  (\w+) \.{2,} ", doc, re.M)
     stems = [m.rpartition(".")[2] for m in _modules("identify")[1:]]
     assert sorted(listed) == sorted(stems)
+
+
+def _package_modules() -> dict[str, Path]:
+    """Every module of the package by its absolute name (a package by its own name)."""
+    out = {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        parts = list(path.relative_to(PACKAGE.parent).with_suffix("").parts)
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        out[".".join(parts)] = path
+    return out
+
+
+def test_the_package_has_no_import_cycle() -> None:
+    """Across subpackages too (the rig and its steady state, the replays); lazy imports count.
+    A package's ``__init__`` is left out as above: it imports what it exports."""
+    modules = {m: p for m, p in _package_modules().items() if p.name != "__init__.py"}
+    assert len(modules) >= 70
+    graph = {m: {n for n in _imports(p) if n in modules and n != m} for m, p in modules.items()}
+    assert _cycle(graph) == []
+
+
+def _private(name: str) -> bool:
+    return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
+
+
+def _package_of(module: str, path: Path) -> str:
+    return module if path.name == "__init__.py" else module.rpartition(".")[0]
+
+
+def _private_uses(module: str, path: Path, modules: dict[str, Path]) -> list[str]:
+    """The private names of other modules that ``module`` uses: imported (``from m import
+    _x``), a private module imported from outside its package, or read as ``alias._x`` off an
+    imported module."""
+    home = _package_of(module, path)
+    tree = ast.parse(path.read_text())
+    found, module_aliases = [], {}
+
+    def private_module_outside(name: str) -> bool:
+        parts = name.split(".")
+        for i, part in enumerate(parts[1:], start=1):
+            if _private(part):
+                owner = ".".join(parts[:i])  # the package the private module belongs to
+                return not (home == owner or home.startswith(owner + "."))
+        return False
+
+    base = home.split(".")
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                if alias.name.startswith("vibrofriction") and private_module_outside(alias.name):
+                    found.append(f"import {alias.name}")
+                if alias.asname and alias.name in modules:
+                    module_aliases[alias.asname] = alias.name
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                source = ".".join(base[:len(base) - node.level + 1] +
+                                  ([node.module] if node.module else []))
+            else:
+                source = node.module or ""
+            if not source.startswith("vibrofriction"):
+                continue
+            if private_module_outside(source):
+                found.append(f"from {source}")
+            for alias in node.names:
+                full = f"{source}.{alias.name}"
+                if full in modules:  # a module imported by name
+                    if private_module_outside(full):
+                        found.append(f"from {source} import {alias.name}")
+                    module_aliases[alias.asname or alias.name] = full
+                elif _private(alias.name) and source != module:
+                    found.append(f"from {source} import {alias.name}")
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and \
+                node.value.id in module_aliases and _private(node.attr):
+            found.append(f"{module_aliases[node.value.id]}.{node.attr}")
+    return found
+
+
+def test_the_private_name_finder_finds_them(tmp_path) -> None:
+    modules = {"vibrofriction.laws._native": Path("x"), "vibrofriction.rigs.rig": Path("y")}
+    code = ("from ..laws._native import load\n"
+            "from ..rigs import rig as rig_module\n"
+            "from ..params import _plain\n"
+            "n = rig_module._cpu_count()\n")
+    path = tmp_path / "replay.py"
+    path.write_text(code)
+    found = _private_uses("vibrofriction.identify.replay", path, modules)
+    assert found == ["from vibrofriction.laws._native", "from vibrofriction.params import _plain",
+                     "vibrofriction.rigs.rig._cpu_count"]
+    path.write_text("from ._native import load\n")  # within its own package: allowed
+    assert _private_uses("vibrofriction.laws.run", path, modules) == []
+
+
+def test_no_module_uses_another_modules_private_name() -> None:
+    modules = _package_modules()
+    used = {m: _private_uses(m, p, modules) for m, p in modules.items()}
+    assert {m: u for m, u in used.items() if u} == {}

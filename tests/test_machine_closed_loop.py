@@ -10,8 +10,8 @@ import mujoco
 import numpy as np
 import pytest
 
+import vibrofriction
 from vibrofriction import cli
-from vibrofriction.rigs import rig as rig_module
 from vibrofriction.data.convert import convert_emps
 from vibrofriction.data.datasets import Dataset, DatasetMetadata, write_dataset
 from vibrofriction.errors import InputError
@@ -35,7 +35,7 @@ def _need_emps() -> Path:
 
 def _controller_spec(substeps: int = 4, **config) -> mujoco.MjSpec:
     """A 2 kg carriage, no friction, under the sampled PD (EMPS gains unless overridden)."""
-    rig_module.load()
+    vibrofriction.load()
     values = {**CONTROLLER, **config}
     spec = mujoco.MjSpec.from_string(f"""
 <mujoco>
@@ -102,7 +102,7 @@ def test_sampled_pd_bad_config_is_named(changes, attribute, fix):
 
 
 def test_the_emps_scene_compiles_alone_and_holds_still_at_its_reference():
-    rig_module.load()
+    vibrofriction.load()
     model = mujoco.MjModel.from_xml_path(str(EMPS_XML))
     data = mujoco.MjData(model)
     data.ctrl[model.actuator("motor").id] = 0.0

@@ -9,7 +9,7 @@ from pathlib import Path
 import mujoco
 import pytest
 
-from vibrofriction import _build_info
+from vibrofriction import build_info
 from vibrofriction.laws._mujoco_plugins import SUPPORTED_MUJOCO
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -24,8 +24,8 @@ def _version_tuple(version: str) -> tuple[int, ...]:
 def test_the_installed_package_requires_the_mujoco_it_was_built_against():
     pins = [r for r in metadata.requires("vibrofriction") or [] if re.match(r"mujoco\b", r)
             and "extra ==" not in r]
-    assert pins == [f"mujoco=={_build_info.MUJOCO_VERSION}"]
-    assert mujoco.__version__ == _build_info.MUJOCO_VERSION
+    assert pins == [f"mujoco=={build_info.MUJOCO_VERSION}"]
+    assert mujoco.__version__ == build_info.MUJOCO_VERSION
 
 
 def test_the_running_mujoco_is_in_the_supported_range():

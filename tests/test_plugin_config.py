@@ -12,6 +12,7 @@ from pathlib import Path
 import mujoco
 import pytest
 
+from vibrofriction import sim
 import vibrofriction
 from vibrofriction.rigs import planar
 from vibrofriction.rigs import rig as rig_module
@@ -319,7 +320,7 @@ def test_mjcf_modulation_frequency_zero_is_zero_hz():
                                    "modulation_phase": "0.5"})
     model = spec.compile()
     data = mujoco.MjData(model)
-    normal_column = rig_module.sensor_slices(model)["friction_state"].start + 3
+    normal_column = sim.sensor_slices(model)["friction_state"].start + 3
     normal_forces_N = []
     for _ in range(100):  # 1 ms: four vibration periods
         mujoco.mj_step(model, data)

@@ -8,6 +8,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from vibrofriction import sim
 import vibrofriction
 from vibrofriction.rigs import rig as rig_module
 from vibrofriction.params import RigParameters, default_friction
@@ -28,7 +29,7 @@ def _error(compile_) -> str:
 
 def test_an_invalid_attribute_is_one_message_naming_the_element():
     spec = _rig_spec()
-    rig_module.set_plugin_config(spec, "friction", {**dict(next(
+    sim.set_plugin_config(spec, "friction", {**dict(next(
         p for p in spec.plugins if p.name == "friction").config), "mu": "-0.1"})
     for message in (_error(spec.compile), _error(lambda: mujoco.MjModel.from_xml_string(
             spec.to_xml()))):
@@ -92,7 +93,7 @@ def test_failed_compiles_do_not_leak():
     init would leak the mjData being made, ~13 MB of address space a failure)."""
     spec = _rig_spec()
     config = dict(next(p for p in spec.plugins if p.name == "friction").config)
-    rig_module.set_plugin_config(spec, "friction", {**config, "mu": "-1"})
+    sim.set_plugin_config(spec, "friction", {**config, "mu": "-1"})
 
     def vm_size_kb() -> int:
         with open("/proc/self/status") as status:
@@ -230,7 +231,7 @@ def test_an_empty_value_is_stored_as_an_absent_key():
     attrs = []
     for config in (absent, {**absent, "stiffness": ""}):
         spec = _rig_spec()
-        rig_module.set_plugin_config(spec, "friction", config)
+        sim.set_plugin_config(spec, "friction", config)
         via_spec = spec.compile()
         via_xml = mujoco.MjModel.from_xml_string(spec.to_xml())
         attrs += [bytes(m.plugin_attr) for m in (via_spec, via_xml)]

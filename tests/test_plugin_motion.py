@@ -12,6 +12,7 @@ import math
 import numpy as np
 import pytest
 
+from vibrofriction import sim
 from vibrofriction.rigs import rig as rig_module
 from vibrofriction.params import RigParameters, default_friction
 
@@ -85,6 +86,6 @@ def test_a_vibration_started_later_follows_the_reference_build_up():
 def test_a_bad_vibration_start_is_refused_by_name(config, message):
     rig = RigParameters(vibration_velocity_amplitude_m_per_s=VA)
     spec = rig_module.build_spec(rig, default_friction("dahl", rig))
-    rig_module.set_plugin_config(spec, "table_shaker", config)
+    sim.set_plugin_config(spec, "table_shaker", config)
     with pytest.raises(ValueError, match=message):
         spec.compile()

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from conftest import PAPER_FRICTION_BOUND_N, rms
 
+from vibrofriction import sim
 from vibrofriction.rigs import rig as rig_module
 from vibrofriction.params import RigParameters, default_friction
 from vibrofriction.oracle.reference import simulate_reference
@@ -115,7 +116,7 @@ def test_dynamometer_lag_is_the_first_order_lag_of_the_spring():
 
     def run(time_constant: float) -> tuple[np.ndarray, np.ndarray]:
         spec = rig_module.build_spec(rig, friction, dt)
-        rig_module.set_plugin_config(spec, "dynamometer", {
+        sim.set_plugin_config(spec, "dynamometer", {
             "tendon": "drive_spring", "time_constant": repr(time_constant)})
         model = spec.compile()
         data = mujoco.MjData(model)

@@ -17,6 +17,7 @@ import pytest
 from conftest import FULL, initial_state
 from mujoco import rollout as mj_rollout
 
+from vibrofriction import sim
 from vibrofriction.rigs import rig as rig_module
 from vibrofriction.params import RigParameters, default_friction
 
@@ -185,7 +186,7 @@ def test_plugin_state_round_trips_with_fullphysics_not_physics(scene):
     else:
         rig = RigParameters(vibration_velocity_amplitude_m_per_s=3e-3)
         spec = rig_module.build_spec(rig, default_friction("dahl", rig), 1e-5)
-        rig_module.set_plugin_config(spec, "dynamometer",
+        sim.set_plugin_config(spec, "dynamometer",
                                      {"tendon": "drive_spring", "time_constant": "2e-4"})
         model = spec.compile()
         drive = lambda d: None  # noqa: E731

@@ -6,32 +6,27 @@ from __future__ import annotations
 import ctypes
 import dataclasses
 import fnmatch
+import importlib.util
 import re
 from pathlib import Path
 
 import pytest
 
-from vibrofriction.laws._native import _LawParameters
+from vibrofriction.laws._native import LawParameters
 from vibrofriction.params import LAWS, LIMITS, FrictionParameters
 from vibrofriction.rigs import planar, rig
 from vibrofriction.robots import averaged
-from vibrofriction.vocabulary import (ALL_ELEMENTS, ALL_LAWS, FRICTION_TERMS, LAW_STRUCT_FIELDS,
-                                      MAX_GMS_ELEMENTS, MAX_MAP_KNOTS, PAPER_LAWS, TERMS_BY_NAME, element_keys)
+from vibrofriction.commands.info import registered_plugins
+from vibrofriction.vocabulary import (ALL_ELEMENTS, ALL_KEYS, ALL_LAWS, ALL_PLUGINS, ELEMENT_KEYS,
+                                      FRICTION_TERMS, LAW_STRUCT_FIELDS, MAX_GMS_ELEMENTS,
+                                      MAX_MAP_KNOTS, PAPER_LAWS, TERMS_BY_NAME, element_keys,
+                                      plugin_keys)
 
 ROOT = Path(__file__).resolve().parents[1]
 CPP = ROOT / "plugin" / "cpp"
 
-# Each element's source and its keys that are no friction term: written out here, so that a
-# friction key the C++ adds or drops and the table does not is a failure, not an own key.
-ELEMENT_SOURCES = {"friction": "plugins/friction_element.cc",
-                   "planar": "plugins/planar_friction.cc",
-                   "contact": "plugins/contact_friction.cc",
-                   "averaged": "plugins/averaged_friction.cc",
-                   "contact_averaged": "plugins/contact_friction.cc",
-                   "contact_feeder": "plugins/contact_friction.cc"}
-# The name of each element's attribute array in its source (two plugins share contact's).
-ATTRIBUTE_ARRAYS = {"contact_averaged": "kAveragedAttributes",
-                    "contact_feeder": "kFeederAttributes"}
+# Each element's keys that are no friction term: written out here, so that a key moving between
+# the friction terms and an element's own keys in the table is a failure.
 NORMAL_LOAD_KEYS = {"normal", "normal_sensor", "normal_gain", "normal_component",
                     "contact_geom1", "contact_geom2"}
 OWN_KEYS = {
@@ -57,10 +52,6 @@ def _cpp(name: str) -> str:
 
 def _number(text: str) -> float:
     return float(text.rstrip("f"))
-
-
-def _key_constants(sources: str) -> dict[str, str]:
-    return dict(re.findall(r'constexpr char (k\w+)\[\] = "(\w+)";', sources))
 
 
 def _table_rows(text: str, header: str) -> list[list[str]]:
@@ -107,7 +98,7 @@ def test_friction_parameters_are_the_table() -> None:
 
 
 def test_the_table_names_known_elements_laws_and_shaped_effects() -> None:
-    assert set(ELEMENT_SOURCES) == set(OWN_KEYS) == set(ALL_ELEMENTS)
+    assert set(OWN_KEYS) == set(ALL_ELEMENTS)
     for term in FRICTION_TERMS:
         assert term.elements and set(term.elements) <= set(ALL_ELEMENTS), term.name
         assert "friction" in term.elements, term.name  # the 1D element takes every term
@@ -119,8 +110,83 @@ def test_the_table_names_known_elements_laws_and_shaped_effects() -> None:
         assert not keys & TABLE_KEYS
 
 
-def test_the_cpp_law_parameters_have_the_tables_defaults() -> None:
+def _generator():
+    """plugin/build_hooks/vocabulary_header.py, which the build runs to write vocabulary.h."""
+    _cpp("laws/friction_law.h")  # (skips outside a source checkout)
+    path = ROOT / "plugin" / "build_hooks" / "vocabulary_header.py"
+    spec = importlib.util.spec_from_file_location("vocabulary_header", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _generated() -> str:
+    generator = _generator()
+    return generator.header(generator.load_vocabulary())
+
+
+def _generated_keys() -> dict[str, str]:
+    """C++ constant -> MJCF key, as vocabulary.h declares them."""
+    return dict(re.findall(r'inline constexpr char (k\w+)\[\] = "(\w+)";', _generated()))
+
+
+def test_the_generated_header_is_the_table() -> None:
+    """vocabulary.h, which every plugin includes, says what the table says: each key once, the
+    defaults, the ranges, the laws of each friction key, the keys of each plugin."""
+    generator = _generator()
+    header = _generated()
+    keys = _generated_keys()
+    assert sorted(keys.values()) == sorted(row.mjcf_key for row in ALL_KEYS)
+    assert len(keys) == len(ALL_KEYS)  # no key twice
+    defaults = {keys[name]: _number(value) for name, value in re.findall(
+        r"inline constexpr double (k\w+) = ([-+0-9.eE]+);", header)}
+    expected = {row.mjcf_key: float(row.default) for row in ALL_KEYS
+                if isinstance(row.default, (int, float)) and not isinstance(row.default, bool)}
+    assert defaults == expected
+    by_key = re.findall(r"\{keys::(k\w+), defaults::(k\w+)\}", header)
+    assert {keys[k] for k, d in by_key} == set(expected) and all(k == d for k, d in by_key)
+    ranges = {keys[name]: (_number(lo), _number(hi)) for name, lo, hi in re.findall(
+        r"\{keys::(k\w+), ([-+0-9.eE]+), ([-+0-9.eE]+)\},", header)}
+    assert ranges == {row.mjcf_key: row.limits for row in ALL_KEYS if row.limits is not None}
+    assert ranges["mu"] == LIMITS["friction_coefficient"]
+    laws = {keys[name]: int(bits, 16) for name, bits in re.findall(
+        r"\{keys::(k\w+), 0x([0-9a-f]+)u\}", header)}
+    assert laws == {t.mjcf_key: sum(1 << ALL_LAWS.index(law) for law in t.laws)
+                    for t in FRICTION_TERMS}
+    for plugin in ALL_PLUGINS:
+        array = re.search(rf"const char\* {generator.constant_name(plugin)}\[\] = \{{(.*?)\}};",
+                          header).group(1)
+        assert [keys[k] for k in re.findall(r"keys::(k\w+)", array)] == \
+            list(plugin_keys(plugin)), plugin
+    assert int(re.search(r"kMaxGmsElements = (\d+);", header).group(1)) == MAX_GMS_ELEMENTS
+    assert int(re.search(r"kMaxMapKnots = (\d+);", header).group(1)) == MAX_MAP_KNOTS
+    assert generator.constant_name("stribeck_velocity") == "kStribeckVelocity"
+
+
+def test_no_cpp_source_restates_a_key_a_default_or_an_attribute_list() -> None:
+    """Keys, defaults and the plugins' attribute lists are the generated header's alone: no
+    source defines a key's string, passes a table key its own default (but the feeder's mu,
+    which has none: it must be given), or lists attributes itself."""
+    keys = set(_generated_keys().values())
+    sources = {str(p.relative_to(CPP)): p.read_text() for p in sorted(CPP.rglob("*"))
+               if p.suffix in (".h", ".cc") and "tests" not in p.parts}
+    own_default = []
+    for name, text in sources.items():
+        for key in re.findall(r'constexpr char k\w+\[\] = "(\w+)";', text):
+            assert key not in keys, f"{name} restates the key {key!r}"
+        assert "const char* const kAttributes[]" not in text, name
+        for call in re.findall(r"RegisterElementPlugin<[^;]*?>\(\s*[\w:]+, ([\w:]+),", text):
+            assert call.startswith(("attributes::", "Spec::kAttributes")), (name, call)
+        own_default += [(name, k) for k in re.findall(
+            r"ReadNumber\(m, instance, \w+, (k\w+), [-+0-9.]", text)]
+    assert own_default == [("plugins/contact_friction.cc", "kMu")]
+    ranges = sources["common/plugin_util.cc"]
+    assert "kKeyRanges" in ranges and not re.search(r'\{"\w+", \{[-0-9.e]+, ', ranges)
+
+
+def test_the_cpp_law_parameters_take_the_tables_defaults() -> None:
     header = _cpp("laws/friction_law.h")
+    keys = _generated_keys()
     struct = re.search(r"struct LawParameters \{(.*?)\};", header, re.S).group(1)
     struct = re.sub(r"//[^\n]*", "", struct)
     declared = re.findall(r"\b(\w+) (\w+) = ([^;]+);", struct)
@@ -130,87 +196,73 @@ def test_the_cpp_law_parameters_have_the_tables_defaults() -> None:
                                                          "time_map"]
     assert re.findall(r"\bGmsElements (\w+);", struct) == ["gms"]
     assert declared[0][:2] == ("Law", "law")
-    defaults = {name: _number(value) for kind, name, value in declared[1:]
-                if kind == "double"}
-    assert len(defaults) == len(declared) - 1  # every field but the law is a double
+    initial = {name: value.strip() for kind, name, value in declared[1:] if kind == "double"}
+    assert len(initial) == len(declared) - 1  # every field but the law is a double
     fields = {term.law_field: term for term in FRICTION_TERMS if term.law_field}
-    assert set(defaults) == set(fields) | {"normal_force"}
+    assert set(initial) == set(fields) | {"normal_force"}
+    assert initial["normal_force"] == "0.0"  # a rig's or a sensor's, not a table value
     for field, term in fields.items():
-        assert defaults[field] == pytest.approx(term.default, rel=1e-12), term.name
+        default = re.fullmatch(r"defaults::(k\w+)", initial[field])
+        assert default and keys[default.group(1)] == term.mjcf_key, (field, initial[field])
     enum = re.search(r"enum class Law : int \{(.*?)\};", header).group(1)
     values = {name.lower(): int(value) for name, value in re.findall(r"k(\w+) = (\d+)", enum)}
     assert values == {law: index for index, law in enumerate(ALL_LAWS)}
     assert LAWS == PAPER_LAWS == ALL_LAWS[:4]  # the study's and identification's laws
-    # law gms's elements: GmsElements, with the table's defaults and bound
+    # law gms's elements and the level maps: sized and defaulted by the table
+    assert "kMaxGmsElements =" not in header and "kMaxMapKnots =" not in header
     gms = re.search(r"struct GmsElements \{(.*?)\n\};", header, re.S).group(1)
     assert re.search(r"int count = 0;", gms)
-    assert int(re.search(r"kMaxGmsElements = (\d+);", header).group(1)) == MAX_GMS_ELEMENTS
     lists = re.findall(r"double (\w+)\[kMaxGmsElements\] = \{\};", gms)
     assert lists == ["stiffness", "weight"]
     assert [t.name for t in FRICTION_TERMS if t.is_list and t.laws == ("gms",)] == [
         "gms_stiffness_N_per_m", "gms_weights"]
-    relaxation = re.search(r"double relaxation_time = ([^;]+);", gms).group(1)
-    assert _number(relaxation) == TERMS_BY_NAME["gms_relaxation_time_s"].default
+    assert re.search(r"double relaxation_time = defaults::kGmsRelaxationTime;", gms)
     level_map = re.search(r"struct LevelMap \{(.*?)\n\};", header, re.S).group(1)
-    assert int(re.search(r"kMaxMapKnots = (\d+);", header).group(1)) == MAX_MAP_KNOTS
     assert re.findall(r"double (\w+)\[kMaxMapKnots\] = \{\};", level_map) == [
         "knot", "factor", "curvature"]
     assert [t.name for t in FRICTION_TERMS if t.is_list and "map" in t.name] == [
         "position_map_knots_m", "position_map_factors", "velocity_map_knots_m_per_s",
         "velocity_map_factors", "time_map_knots_s", "time_map_factors"]
-    assert _number(re.search(r"double period = ([^;]+);", level_map).group(1)) == \
-        TERMS_BY_NAME["position_map_period_m"].default
+    assert re.search(r"double period = defaults::kPositionMapPeriod;", level_map)
 
 
-def test_the_config_readers_read_each_key_into_its_field_with_the_tables_default() -> None:
-    """element_config.cc and friction_element.cc read {kKey, &field, default}; the keys'
-    strings are the constants of element_config.h and friction_element.cc."""
+def test_the_config_readers_read_each_key_into_its_field() -> None:
+    """element_config.cc and friction_element.cc read {kKey, &field} (the default: the table's,
+    looked up by key), or a list, or a level map; every friction key is read, into its field."""
     sources = (_cpp("common/element_config.h") + _cpp("common/element_config.cc")
                + _cpp("plugins/friction_element.cc"))
-    constants = _key_constants(sources)
-    read = {constants[key]: (field, _number(value)) for key, field, value in re.findall(
-        r"\{(k\w+), &\w+\.(\w+), ([-+0-9.eE]+)\}", sources)}
-    read.update({constants[key]: (field, _number(value)) for key, value, field in re.findall(
-        r"ReadNumber\(m, instance, plugin, (k\w+), ([-+0-9.eE]+), &\w+\.(\w+)\)", sources)})
-    # a list (law gms's elements) is read whole; its default is empty
-    read.update({constants[key]: (None, ()) for key in re.findall(
+    constants = _generated_keys()
+    read = {constants[key]: field for key, field in re.findall(
+        r"\{(k\w+), &\w+\.(\w+)\}", sources)}
+    read.update({constants[key]: field for key, field in re.findall(
+        r"ReadNumber\(m, instance, \w+, (k\w+), &\w+\.(\w+)\)", sources)})
+    # a list (law gms's elements) is read whole
+    read.update({constants[key]: None for key in re.findall(
         r"ReadNumberList\(m, instance, plugin, (k[A-Z]\w+),", sources)})
     # a level map: ReadLevelMap(..., knots key, factors key, period key or nullptr, ...)
     for knots, factors, period in re.findall(
             r"ReadLevelMap\(m, instance, kPlugin, (k\w+), (k\w+),\s*(k\w+|nullptr),", sources):
-        read.update({constants[knots]: (None, ()), constants[factors]: (None, ())})
+        read.update({constants[knots]: None, constants[factors]: None})
         if period != "nullptr":
-            read[constants[period]] = (None, 0.0)
+            read[constants[period]] = None
     for term in FRICTION_TERMS:
         assert term.mjcf_key in read, f"{term.mjcf_key} is not read by the friction element"
-        field, default = read[term.mjcf_key]
-        if term.is_list:
-            assert default == term.default == (), term.name
-            continue
-        assert default == pytest.approx(term.default, rel=1e-12), term.name
         if term.law_field:
-            assert field == term.law_field, term.name
+            assert read[term.mjcf_key] == term.law_field, term.name
 
 
-@pytest.mark.parametrize("element", ALL_ELEMENTS)
-def test_each_elements_attributes_are_the_table_keys_it_takes(element: str) -> None:
-    """The kAttributes array MuJoCo checks an element's config against: its own keys and,
-    beyond them, exactly the table keys whose row names the element."""
-    source = _cpp(ELEMENT_SOURCES[element])
-    constants = _key_constants(_cpp("common/element_config.h") + source)
-    array = ATTRIBUTE_ARRAYS.get(element, "kAttributes")
-    attributes = re.search(rf"\b{array}\[\] = \{{(.*?)\}};", source, re.S).group(1)
-    listed = [constants[k] for k in re.findall(r"\bk\w+", attributes)]
-    assert len(listed) == len(set(listed)), f"{element}: a key listed twice"
-    own = OWN_KEYS[element]
-    assert own <= set(listed), f"{element}: own keys not listed: {own - set(listed)}"
-    friction_keys = set(listed) - own
-    unknown = friction_keys - TABLE_KEYS
-    assert not unknown, f"{element} lists keys neither its own nor table keys: {unknown}"
-    takes = set(element_keys(element).values())
-    assert friction_keys == takes, (f"{element}: listed, the table says not taken: "
-                                    f"{friction_keys - takes}; taken, not listed: "
-                                    f"{takes - friction_keys}")
+@pytest.mark.parametrize("plugin", ALL_PLUGINS)
+def test_each_plugin_registers_the_table_keys_it_takes(plugin: str) -> None:
+    """What MuJoCo checks a plugin's config against, read from its registry: exactly the
+    table's keys for that plugin, friction terms and own keys (the elements' own keys are
+    written out here as well, so that a key moving between the two is seen)."""
+    registered = {p["name"]: p["attributes"] for p in registered_plugins()}
+    attributes = registered[f"vibrofriction.{plugin}"]
+    assert attributes == list(plugin_keys(plugin))
+    if plugin in OWN_KEYS:
+        own = {row.mjcf_key for row in ELEMENT_KEYS if plugin in row.elements}
+        assert own == OWN_KEYS[plugin]
+        assert set(attributes) - own == set(element_keys(plugin).values())
 
 
 def test_the_c_api_struct_and_the_ctypes_layout_are_the_tables() -> None:
@@ -222,7 +274,7 @@ def test_the_c_api_struct_and_the_ctypes_layout_are_the_tables() -> None:
     assert len(declared) == struct.count(",") + struct.count(";")  # nothing else declared
     assert declared == [("int", "law"), *(("double", f) for f in LAW_STRUCT_FIELDS)]
     kinds = {ctypes.c_int: "int", ctypes.c_double: "double"}
-    assert [(kinds[t], n) for n, t in _LawParameters._fields_] == declared
+    assert [(kinds[t], n) for n, t in LawParameters._fields_] == declared
     assert set(LAW_STRUCT_FIELDS) == {t.law_field for t in FRICTION_TERMS if t.law_field} | \
         {"normal_force"}
 

@@ -5,7 +5,10 @@ Where things live (docs/DEVELOPING.md has the layout):
                          through vibrofriction/laws/ (laws.run_law)
   MuJoCo plugins ....... plugin/cpp/plugins/ (friction_element.cc, support_motion.cc, ...)
   parameters ........... vibrofriction/params.py, the table in vocabulary.py
-  the paper's rig ...... mjcf_models/rig/ and vibrofriction/rigs/rig.py (planar, steady, sweep)
+  the paper's rig ...... mjcf_models/rig/ and vibrofriction/rigs/rig.py (its model:
+                         rig_model.py; planar, steady, sweep)
+  MuJoCo plumbing ...... vibrofriction/sim/ (model folder, state, sensors, plugin configs,
+                         thread counts: what rigs, robots and identify share)
   robots ............... mjcf_models/robots/ and vibrofriction/robots/ (scenes, averaged tables,
                          feeder map, the Jaco cell)
   scipy oracle ......... vibrofriction/oracle/reference.py, analytic limits in oracle/analytic.py
@@ -16,7 +19,7 @@ Where things live (docs/DEVELOPING.md has the layout):
   the paper study ...... vibrofriction/study/
   command line ......... vibrofriction/cli.py and commands/ (the top layer)
 """
-from .laws._native import MujocoVersionMismatch, check_mujoco_version, load
+from .laws import MujocoVersionMismatch, check_mujoco_version, load
 from .params import (LAWS, FrictionParameters, ParameterError, RigParameters, default_friction)
 
 __version__ = "0.1.0"

@@ -14,7 +14,7 @@ import re
 import sys
 from typing import Any, Sequence
 
-from .laws._native import MujocoVersionMismatch
+from .laws import MujocoVersionMismatch
 from .commands.common import UsageError, check_outputs  # noqa: F401 (UsageError: the API)
 from .errors import InputError
 
@@ -63,9 +63,9 @@ def version_line() -> str:
     installed (they must be equal: ``_native.check_mujoco_version``)."""
     import mujoco
 
-    from . import __version__, _build_info
+    from . import __version__, build_info
     return (f"vibrofriction {__version__}, MuJoCo {mujoco.__version__} (plugin built against "
-            f"{_build_info.MUJOCO_VERSION})")
+            f"{build_info.MUJOCO_VERSION})")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -76,7 +76,7 @@ def _check_limits(params: Any) -> None:
                     abs(item) > largest or 0 < abs(item) < smallest):
                 rule = f"must lie within +-{largest:g}" + (
                     f" and be 0 or at least {smallest:g} in magnitude" if smallest else "")
-                raise ParameterError(f"parameter {name}={_plain(value)!r} {rule} (SI units)")
+                raise ParameterError(f"parameter {name}={plain_value(value)!r} {rule} (SI units)")
 
 
 class ParameterError(InputError):
@@ -205,7 +205,7 @@ class FrictionParameters:
         for name in _LIST_FIELDS:
             value = getattr(self, name)
             if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
-                raise ParameterError(f"parameter {name}={_plain(value)!r} must be a list of "
+                raise ParameterError(f"parameter {name}={plain_value(value)!r} must be a list of "
                                      "numbers")
             try:
                 object.__setattr__(self, name, tuple(float(x) for x in value))
@@ -333,10 +333,10 @@ def lugre_default_bristle_damping(contact_stiffness_N_per_m: float, mass_kg: flo
 
 def _require(ok: bool, name: str, value: Any, rule: str) -> None:
     if not ok or (isinstance(value, float) and math.isnan(value)):
-        raise ParameterError(f"parameter {name}={_plain(value)!r} {rule}")
+        raise ParameterError(f"parameter {name}={plain_value(value)!r} {rule}")
 
 
-def _plain(value: Any) -> Any:
+def plain_value(value: Any) -> Any:
     """A numpy scalar as the Python number it holds: messages show 0.5, not np.float64(0.5)."""
     numpy_scalar = type(value).__module__ == "numpy" and getattr(value, "ndim", None) == 0
     return value.item() if numpy_scalar else value

@@ -9,13 +9,16 @@ the C++ ``Law`` enum (its values).
 
 ``rig.MJCF_KEYS``, ``planar.PLANAR_MJCF_KEYS`` (and the effects ``check_planar`` refuses),
 ``averaged``'s law keys, ``params.LIMITS`` (its friction part), ``FrictionParameters``'
-defaults and ``laws``' struct filling come from this table; ``tests/test_vocabulary.py``
-checks the C++ side (``friction_law.h``'s fields, defaults and law enum, the config readers'
-keys, fields and defaults, each element's ``kAttributes``, ``c_api.h``'s struct), the ctypes
-struct, the keys, units, defaults and laws of ``docs/simulation.md``'s parameter table, the
-keys, units and laws of ``docs/robots.md``'s (and its averaged keys sentence), and
-``docs/interfaces.md``'s friction key table and element key lists against it.
-(``plugin_util.cc``'s ranges are checked at run time by ``tests/test_plugin_config.py``.)
+defaults and ``laws``' struct filling come from this table. So does the C++ side: the build
+writes ``vocabulary.h`` from it (``plugin/build_hooks/vocabulary_header.py``: every plugin's
+keys, their defaults and ranges, the laws of each friction key, each plugin's attribute list),
+which the plugins and ``friction_law.h``'s ``LawParameters`` use; ``ELEMENT_KEYS`` holds the
+plugins' own keys (normal load, vibration, contact and feeder geometry, motion, controller,
+sensors) the same way. This module imports nothing but the standard library: the build loads
+it from its file. ``tests/test_vocabulary.py`` checks the generated header, that no C++
+source restates a key, a default or an attribute list, what MuJoCo's registry holds, the
+ctypes struct, and the docs' tables (``docs/simulation.md``, ``docs/robots.md``,
+``docs/interfaces.md``) against it.
 """
 from __future__ import annotations
 
@@ -155,6 +158,115 @@ def config_values(friction, keys: dict[str, str]) -> dict[str, str]:
     return config
 
 
+# The plugins that are not friction elements (vibrofriction.<name>): the prescribed motion, the
+# lagged tendon sensor, the sampled PD controller and the elements' state sensors.
+OTHER_PLUGINS = ("motion", "lagged_tendon", "sampled_pd", "friction_sensor", "planar_sensor",
+                 "contact_sensor")
+ALL_PLUGINS = ALL_ELEMENTS + OTHER_PLUGINS
+NORMAL_LOAD_ELEMENTS = ("friction", "planar", "averaged")  # a load from config, sensor or contact
+CONTACT_ELEMENTS = ("contact", "contact_averaged", "contact_feeder")  # the load: MuJoCo's contacts
+AVERAGED_ELEMENTS = ("averaged", "contact_averaged")  # the table of the averaged law
+
+
+@dataclass(frozen=True)
+class ElementKey:
+    """An MJCF config key of a plugin that is not a friction term: the normal load's source, the
+    vibration, the contact and feeder geometry, the motion, the controller, the sensors."""
+
+    mjcf_key: str
+    unit: str  # "name": a name of the model; "bool": true or false; "list": numbers
+    default: float | bool | None  # None: a name, a list or text, empty unless given
+    limits: tuple[float, float] | None  # as Term.limits; None: the reader's own rule
+    elements: tuple[str, ...]  # the plugins (ALL_PLUGINS) whose config takes it
+    meaning: str
+
+
+ELEMENT_KEYS: tuple[ElementKey, ...] = (
+    ElementKey("law", "name", None, None, ("friction", "planar", "contact"),
+               "the friction law: coulomb, dahl, dupont, lugre (gms: friction, planar)"),
+    ElementKey("normal", "N", 0.0, (0.0, 1e9), NORMAL_LOAD_ELEMENTS,
+               "constant normal load"),
+    ElementKey("normal_sensor", "name", None, None, NORMAL_LOAD_ELEMENTS,
+               "a sensor whose value (times normal_gain) adds to the normal load"),
+    ElementKey("normal_gain", "N per unit", 1.0, (0.0, 1e9), NORMAL_LOAD_ELEMENTS,
+               "newtons per unit of the normal sensor or contact force"),
+    ElementKey("normal_component", "-", 0.0, None, NORMAL_LOAD_ELEMENTS,
+               "the sensor's component read as the load"),
+    ElementKey("contact_geom1", "name", None, None, NORMAL_LOAD_ELEMENTS,
+               "with contact_geom2: the load is the normal force of their contacts"),
+    ElementKey("contact_geom2", "name", None, None, NORMAL_LOAD_ELEMENTS,
+               "the other geom of the contacts that carry the load"),
+    ElementKey("normal_from_ctrl", "bool", False, None, ("friction",),
+               "the actuator's ctrl is the normal load"),
+    ElementKey("velocity_amplitude", "m/s", 0.0, (0.0, 1e3), AVERAGED_ELEMENTS + ("motion",),
+               "the support's vibration velocity amplitude"),
+    ElementKey("axis_angle", "rad", 0.0, (0.0, 1e6), ("averaged",),
+               "the vibration's direction in the element's plane"),
+    ElementKey("use_ctrl", "bool", False, None, ("averaged", "motion"),
+               "the actuator's ctrl scales the vibration"),
+    ElementKey("table_xi", "list", None, None, AVERAGED_ELEMENTS,
+               "the averaged table's speed ratios"),
+    ElementKey("table_angle", "list", None, None, AVERAGED_ELEMENTS,
+               "the averaged table's angles"),
+    ElementKey("table_along", "list", None, None, AVERAGED_ELEMENTS,
+               "the averaged force along the motion"),
+    ElementKey("table_across", "list", None, None, AVERAGED_ELEMENTS,
+               "the averaged force across the motion"),
+    ElementKey("table_checksum", "text", None, None, AVERAGED_ELEMENTS,
+               "FNV-1a of the four lists: the per-step config check skips them"),
+    ElementKey("support", "name", None, None, CONTACT_ELEMENTS,
+               "the body the part slides on (its contacts with the part carry the element)"),
+    ElementKey("support_geom", "name", None, None, CONTACT_ELEMENTS,
+               "the one geom of the support that conveys (walls and stops are MuJoCo's)"),
+    ElementKey("torsion_radius", "m", 0.0, None, CONTACT_ELEMENTS,
+               "radius of the contact patch for the torsional friction"),
+    ElementKey("axis", "list", None, None, ("contact_averaged", "contact_feeder"),
+               "the vibration direction in the support's frame"),
+    ElementKey("helix_pitch", "m", 0.0, None, ("contact_feeder",),
+               "rise per turn of a bowl feeder's helical track"),
+    ElementKey("map_velocity", "list", None, None, ("contact_feeder",),
+               "the feeder map's conveying velocities"),
+    ElementKey("map_force", "list", None, None, ("contact_feeder",),
+               "the feeder map's mean forces"),
+    ElementKey("frequency", "Hz", 0.0, (0.0, 1e7), ("motion",), "vibration frequency"),
+    ElementKey("velocity", "m/s", 0.0, (1e-12, 1e3), ("motion",),
+               "constant velocity (the drive's far end)"),
+    ElementKey("phase", "rad", 0.0, (0.0, 1e6), ("motion",), "vibration phase"),
+    ElementKey("start_time", "s", 0.0, (0.0, 1e9), ("motion",),
+               "the vibration starts then"),
+    ElementKey("ramp_periods", "-", 0.0, (0.0, 1e9), ("motion",),
+               "periods over which the vibration builds up"),
+    ElementKey("displacement_from_ctrl", "bool", False, None, ("motion",),
+               "the ctrl is the support's displacement (a measured motion replayed)"),
+    ElementKey("tendon", "name", None, None, ("lagged_tendon",), "the tendon read"),
+    ElementKey("time_constant", "s", 0.0, (0.0, 1e3), ("lagged_tendon",),
+               "the reading's first-order lag"),
+    ElementKey("beyond_deadband", "bool", False, None, ("lagged_tendon",),
+               "read the extension beyond the tendon's dead band (a play)"),
+    ElementKey("position_gain", "N/m", 0.0, None, ("sampled_pd",), "P gain"),
+    ElementKey("velocity_gain", "N s/m", 0.0, None, ("sampled_pd",), "D gain"),
+    ElementKey("drive_gain", "N per unit", 1.0, None, ("sampled_pd",),
+               "force per unit of the command"),
+    ElementKey("saturation", "N", 0.0, None, ("sampled_pd",), "command limit (0: none)"),
+    ElementKey("sample_period", "s", 0.0, None, ("sampled_pd",), "controller sample period"),
+    ElementKey("command_delay", "s", 0.0, None, ("sampled_pd",), "delay of the command"),
+    ElementKey("actuator", "name", None, None, ("friction_sensor", "planar_sensor"),
+               "the friction element's actuator the sensor reads"),
+    ElementKey("body", "name", None, None, ("contact_sensor",),
+               "the body whose contact element the sensor reads"),
+)
+# every key of every plugin: the friction terms', then the plugins' own
+ALL_KEYS: tuple = FRICTION_TERMS + ELEMENT_KEYS
+
+
+def plugin_keys(plugin: str) -> tuple[str, ...]:
+    """The MJCF config keys ``vibrofriction.<plugin>`` takes, in table order (the friction
+    terms', then its own): exactly the attributes it registers with MuJoCo."""
+    if plugin not in ALL_PLUGINS:
+        raise ValueError(f"unknown plugin {plugin!r}; the plugins are {ALL_PLUGINS}")
+    return tuple(row.mjcf_key for row in ALL_KEYS if plugin in row.elements)
+
+
 # The C API struct's doubles after ``int law``, in c_api.h's order (the ABI: written out, so
 # that reordering the table cannot move them): the law values and the normal load (a rig's or
 # a sensor's, not a FrictionParameters value). tests/test_vocabulary.py checks both.
@@ -167,4 +279,6 @@ LAW_STRUCT_FIELDS = (
 __all__ = ["Term", "FRICTION_TERMS", "TERMS_BY_NAME", "DEFAULTS", "MJCF_KEYS", "LIMITS",
            "LAW_STRUCT_FIELDS", "ALL_LAWS", "PAPER_LAWS", "GMS_ELEMENTS", "MAX_GMS_ELEMENTS", "MAX_MAP_KNOTS", "ALL_ELEMENTS", "VELOCITY_LAW_ELEMENTS",
            "RESOLVING_ELEMENTS",
-           "LINE_ELEMENT_ONLY", "PAPER_CONTACT_STIFFNESS_N_PER_M", "element_keys", "config_values"]
+           "LINE_ELEMENT_ONLY", "PAPER_CONTACT_STIFFNESS_N_PER_M", "element_keys", "config_values",
+           "ElementKey", "ELEMENT_KEYS", "ALL_KEYS", "OTHER_PLUGINS", "ALL_PLUGINS",
+           "NORMAL_LOAD_ELEMENTS", "CONTACT_ELEMENTS", "AVERAGED_ELEMENTS", "plugin_keys"]

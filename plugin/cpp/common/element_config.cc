@@ -30,7 +30,7 @@ static bool ReadGmsElements(const mjModel* m, int instance, const char* plugin, 
                        plugin, static_cast<int>(weight.size()), count);
   }
   GmsElements read;  // (the relaxation time as read; the lists are checked below)
-  if (!ReadNumber(m, instance, plugin, kGmsRelaxationTime, 0.0, &read.relaxation_time)) {
+  if (!ReadNumber(m, instance, plugin, kGmsRelaxationTime, &read.relaxation_time)) {
     return false;
   }
   const ListCheck check = MakeGmsElements(stiffness.data(), weight.empty() ? nullptr
@@ -140,23 +140,22 @@ bool ReadLawParameters(const mjModel* m, int instance, const char* plugin, LawPa
   }
   const struct {
     const char* attr;
-    double* target;
-    double default_value;
+    double* target;  // (its default: the table's, vocabulary.h)
   } numbers[] = {
-      {kMu, &p.friction_coefficient, 0.2},
-      {kStiffness, &p.contact_stiffness, 8e7},
-      {kAlpha, &p.alpha, 1.0},
-      {kBreakaway, &p.breakaway_ratio, 0.7},
-      {kSigma1, &p.bristle_damping, 0.0},
-      {kViscous, &p.viscous, 0.0},
-      {kStaticRatio, &p.static_ratio, 1.0},
-      {kStribeckVelocity, &p.stribeck_velocity, 1e-3},
-      {kNormalModulation, &p.normal_modulation, 0.0},
-      {kModulationFrequency, &p.normal_modulation_frequency, 0.0},
-      {kModulationPhase, &p.normal_modulation_phase, 0.0},
+      {kMu, &p.friction_coefficient},
+      {kStiffness, &p.contact_stiffness},
+      {kAlpha, &p.alpha},
+      {kBreakaway, &p.breakaway_ratio},
+      {kSigma1, &p.bristle_damping},
+      {kViscous, &p.viscous},
+      {kStaticRatio, &p.static_ratio},
+      {kStribeckVelocity, &p.stribeck_velocity},
+      {kNormalModulation, &p.normal_modulation},
+      {kModulationFrequency, &p.normal_modulation_frequency},
+      {kModulationPhase, &p.normal_modulation_phase},
   };
   for (const auto& spec : numbers) {
-    if (!ReadNumber(m, instance, plugin, spec.attr, spec.default_value, spec.target)) {
+    if (!ReadNumber(m, instance, plugin, spec.attr, spec.target)) {
       return false;
     }
   }
@@ -206,9 +205,9 @@ bool NormalLoad::FromModel(const mjModel* m, int instance, const char* plugin, R
                            NormalLoad* out) {
   NormalLoad n;
   double component = 0.0;
-  if (!ReadNumber(m, instance, plugin, kNormal, 0.0, &n.normal) ||
-      !ReadNumber(m, instance, plugin, kNormalGain, 1.0, &n.gain) ||
-      !ReadNumber(m, instance, plugin, kNormalComponent, 0.0, &component)) {
+  if (!ReadNumber(m, instance, plugin, kNormal, &n.normal) ||
+      !ReadNumber(m, instance, plugin, kNormalGain, &n.gain) ||
+      !ReadNumber(m, instance, plugin, kNormalComponent, &component)) {
     return false;
   }
   if (n.normal < 0) return RejectAttribute(plugin, kNormal, n.normal, "must be >= 0 (N)");

@@ -7,51 +7,16 @@
 
 #include "common/plugin_util.h"
 #include "laws/friction_law.h"
+#include "vocabulary.h"  // generated from vibrofriction/vocabulary.py
 
 namespace vibrofriction {
 
-// MJCF config keys shared by the friction elements (README maps each to its Python name).
+// The MJCF config keys (keys::k<Key>), their defaults (defaults::k<Key>), ranges and the keys
+// each plugin takes (attributes::k<Plugin>) come from the one table, vibrofriction/vocabulary.py,
+// through the header the build generates from it (plugin/build_hooks/vocabulary_header.py).
 namespace keys {
-inline constexpr char kLaw[] = "law";
-inline constexpr char kMu[] = "mu";
-inline constexpr char kNormal[] = "normal";
-inline constexpr char kNormalSensor[] = "normal_sensor";
-inline constexpr char kNormalGain[] = "normal_gain";
-inline constexpr char kNormalComponent[] = "normal_component";
-inline constexpr char kContactGeom1[] = "contact_geom1";
-inline constexpr char kContactGeom2[] = "contact_geom2";
-inline constexpr char kNormalFromCtrl[] = "normal_from_ctrl";  // vibrofriction.friction
-inline constexpr char kStiffness[] = "stiffness";
-inline constexpr char kAlpha[] = "alpha";
-inline constexpr char kBreakaway[] = "breakaway";
-inline constexpr char kSigma1[] = "sigma1";
-inline constexpr char kViscous[] = "viscous";
-inline constexpr char kStaticRatio[] = "static_ratio";
-inline constexpr char kStribeckVelocity[] = "stribeck_velocity";
-inline constexpr char kNormalModulation[] = "normal_modulation";
-inline constexpr char kModulationFrequency[] = "modulation_frequency";
-inline constexpr char kModulationPhase[] = "modulation_phase";
-// law gms (vibrofriction.friction and .planar)
-inline constexpr char kGmsStiffness[] = "gms_stiffness";
-inline constexpr char kGmsWeight[] = "gms_weight";
-inline constexpr char kGmsRelaxationTime[] = "gms_relaxation_time";
-// level maps (vibrofriction.friction)
-inline constexpr char kPositionMapKnots[] = "position_map_knots";
-inline constexpr char kPositionMapFactors[] = "position_map_factors";
-inline constexpr char kPositionMapPeriod[] = "position_map_period";
-inline constexpr char kVelocityMapKnots[] = "velocity_map_knots";
-inline constexpr char kVelocityMapFactors[] = "velocity_map_factors";
-inline constexpr char kTimeMapKnots[] = "time_map_knots";
-inline constexpr char kTimeMapFactors[] = "time_map_factors";
-// the averaged elements' vibration and table (vibrofriction.averaged, .contact_averaged)
-inline constexpr char kVelocityAmplitude[] = "velocity_amplitude";
-inline constexpr char kTableXi[] = "table_xi";
-inline constexpr char kTableAngle[] = "table_angle";
-inline constexpr char kTableAlong[] = "table_along";
-inline constexpr char kTableAcross[] = "table_across";
-// FNV-1a of the four lists' numbers (NumberListChecksum): lets the per-step config check skip them
-inline constexpr char kTableChecksum[] = "table_checksum";
-// the lists the checksum stands for, in its order
+// the averaged table's lists, in the order of its checksum (NumberListChecksum), which lets the
+// per-step config check skip them (table_checksum)
 inline constexpr const char* kTableLists[] = {kTableXi, kTableAngle, kTableAlong, kTableAcross};
 }  // namespace keys
 

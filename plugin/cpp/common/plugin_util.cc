@@ -21,57 +21,18 @@ constexpr int kMessageSize = 480;
 thread_local char config_error[kMessageSize] = "";
 thread_local char report[kMessageSize] = "";
 
-// Physical ranges (SI) of the numeric attributes. Keys with a Python name take its
-// vibrofriction.params.LIMITS entry (tests/test_plugin_config.py compares them); the others are
-// chosen alike: far past any rig or machine, small enough that a step stays finite.
-struct NamedRange {
-  const char* attr;
-  AttributeRange range;
-};
-constexpr NamedRange kRanges[] = {
-    // friction elements (params.FrictionParameters, RigParameters.normal_force_N)
-    {"mu", {0.0, 1e9}},                     // friction_coefficient
-    {"normal", {0.0, 1e9}},                 // normal_force_N
-    {"normal_gain", {0.0, 1e9}},            // N per unit of the sensor or contact force
-    {"stiffness", {0.0, 1e18}},             // contact_stiffness_N_per_m
-    {"alpha", {0.0, 1e3}},
-    {"sigma1", {0.0, 1e15}},                // bristle_damping_N_s_per_m
-    {"viscous", {0.0, 1e15}},               // viscous_N_s_per_m
-    {"static_ratio", {0.0, 1e3}},
-    {"stribeck_velocity", {1e-15, 1e3}},    // stribeck_velocity_m_per_s
-    {"ripple_wavelength", {1e-15, 1e6}},    // position_ripple_wavelength_m
-    {"ripple_phase", {0.0, 1e6}},           // position_ripple_phase_rad
-    {"modulation_frequency", {0.0, 1e9}},   // normal_force_modulation_frequency_Hz
-    {"modulation_phase", {0.0, 1e6}},       // normal_force_modulation_phase_rad
-    {"force_offset", {0.0, 1e9}},           // force_offset_N
-    {"contact_play", {0.0, 1e3}},           // contact_play_m
-    {"sensor_lag", {0.0, 1e3}},             // sensor_lag_s
-    {"gms_stiffness", {0.0, 1e18}},         // gms_stiffness_N_per_m (each value)
-    {"gms_relaxation_time", {0.0, 1e3}},    // gms_relaxation_time_s
-    {"position_map_knots", {0.0, 1e6}},     // position_map_knots_m (each value)
-    {"position_map_factors", {0.0, 1e3}},   // position_map_factors
-    {"position_map_period", {0.0, 1e6}},    // position_map_period_m
-    {"velocity_map_knots", {0.0, 1e3}},     // velocity_map_knots_m_per_s
-    {"velocity_map_factors", {0.0, 1e3}},   // velocity_map_factors
-    {"time_map_knots", {0.0, 1e9}},         // time_map_knots_s (each value)
-    {"time_map_factors", {0.0, 1e3}},       // time_map_factors
-    {"axis_angle", {0.0, 1e6}},             // rad
-    // vibrofriction.motion and the averaged element (params.RigParameters)
-    {"frequency", {0.0, 1e7}},              // vibration_frequency_Hz
-    {"velocity_amplitude", {0.0, 1e3}},     // vibration_velocity_amplitude_m_per_s
-    {"velocity", {1e-12, 1e3}},             // drive_velocity_m_per_s
-    {"phase", {0.0, 1e6}},                  // rad
-    {"start_time", {0.0, 1e9}},             // vibration_from_s
-    {"ramp_periods", {0.0, 1e9}},           // vibration periods
-    // vibrofriction.lagged_tendon
-    {"time_constant", {0.0, 1e3}},          // s, as sensor_lag_s
-};
-
-const NamedRange* FindRange(const char* attr) {
-  for (const NamedRange& named : kRanges) {
-    if (std::strcmp(named.attr, attr) == 0) return &named;
+// Physical ranges (SI) of the numeric attributes: the table's limits (vocabulary.py's, through
+// the generated vocabulary.h): far past any rig or machine, small enough that a step stays
+// finite. A key without limits there takes AttributeRange's default.
+const KeyRange* FindRange(const char* attr) {
+  for (const KeyRange& named : kKeyRanges) {
+    if (std::strcmp(named.key, attr) == 0) return &named;
   }
   return nullptr;
+}
+
+AttributeRange RangeOf(const KeyRange* named) {
+  return named ? AttributeRange{named->smallest_nonzero, named->largest} : AttributeRange{};
 }
 
 }  // namespace
@@ -153,8 +114,8 @@ bool ReadNumber(const mjModel* m, int instance, const char* plugin, const char* 
     return ConfigError("%s: attribute '%s'=\"%.40s\" is too small to represent (below "
                        "2.2e-308); write 0 or a number of normal size", plugin, attr, text);
   }
-  const NamedRange* named = FindRange(attr);
-  const AttributeRange range = named ? named->range : AttributeRange{};
+  const KeyRange* named = FindRange(attr);
+  const AttributeRange range = RangeOf(named);
   const double magnitude = std::fabs(value);
   if (magnitude > range.largest || (magnitude > 0 && magnitude < range.smallest)) {
     if (!named) {
@@ -173,6 +134,17 @@ bool ReadNumber(const mjModel* m, int instance, const char* plugin, const char* 
   }
   *out = value;
   return true;
+}
+
+bool ReadNumber(const mjModel* m, int instance, const char* plugin, const char* attr,
+                double* out) {
+  for (const KeyDefault& entry : kKeyDefaults) {
+    if (std::strcmp(entry.key, attr) == 0) {
+      return ReadNumber(m, instance, plugin, attr, entry.value, out);
+    }
+  }
+  return ConfigError("%s: attribute '%s' has no default number in the vocabulary (a bug: "
+                     "report it)", plugin, attr);
 }
 
 bool ReadBool(const mjModel* m, int instance, const char* plugin, const char* attr,
@@ -381,8 +353,8 @@ bool ReadNumberList(const mjModel* m, int instance, const char* plugin, const ch
                          "decimal numbers separated by spaces", plugin, attr,
                          static_cast<int>(cursor - text));
     }
-    const NamedRange* named = FindRange(attr);
-    const AttributeRange range = named ? named->range : AttributeRange{};
+    const KeyRange* named = FindRange(attr);
+    const AttributeRange range = RangeOf(named);
     if (std::fabs(value) > range.largest || (value != 0 && std::fabs(value) < range.smallest)) {
       char smallest[64] = "";
       if (range.smallest > 0) {

@@ -4,6 +4,7 @@
 #define VIBROFRICTION_PLUGIN_UTIL_H_
 
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <initializer_list>
@@ -52,6 +53,11 @@ enum class ReadScope { kAttributes, kAll };
 // stored by MuJoCo exactly as a missing key: the plugin cannot tell them apart).
 bool ReadNumber(const mjModel* m, int instance, const char* plugin, const char* attr,
                 double default_value, double* out);
+// The same with the table's default of `attr` (vocabulary.py, through the generated
+// vocabulary.h): the one place a default is written. A key without a number as its default
+// there is a programming error, reported as a config error naming it.
+bool ReadNumber(const mjModel* m, int instance, const char* plugin, const char* attr,
+                double* out);
 
 // Reads a whitespace-separated list of finite decimal numbers (each as ReadNumber's, at most
 // kLargestAttribute in magnitude); a missing key gives an empty list.
@@ -225,6 +231,27 @@ void SetPluginCallbacks(mjpPlugin* plugin) {
       InstanceOf<T>(d, instance)->Advance(m, d, instance);
     };
   }
+}
+
+// Registers the plugin `name` of element class T: its config keys `attributes`, its
+// capability (mjPLUGIN_ACTUATOR, _PASSIVE or _SENSOR), the callbacks of SetPluginCallbacks
+// with the config reader Read; a sensor gives its number of values and the stage it needs.
+template <class T, auto Read, int kSensorValues = 0, mjtStage kSensorStage = mjSTAGE_NONE,
+          std::size_t N>
+void RegisterElementPlugin(const char* name, const char* const (&attributes)[N],
+                           int capability) {
+  mjpPlugin plugin;
+  mjp_defaultPlugin(&plugin);
+  plugin.name = name;
+  plugin.capabilityflags |= capability;
+  plugin.nattribute = static_cast<int>(N);
+  plugin.attributes = attributes;
+  if constexpr (kSensorValues > 0) {
+    plugin.needstage = kSensorStage;
+    plugin.nsensordata = +[](const mjModel*, int, int) { return kSensorValues; };
+  }
+  SetPluginCallbacks<T, Read>(&plugin);
+  mjp_registerPlugin(&plugin);
 }
 
 // One step dt of the first-order lag tau y' + y = u, exact for u linear from previous_input to

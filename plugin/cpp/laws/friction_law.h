@@ -20,6 +20,8 @@
 #include <cmath>
 #include <utility>
 
+#include "vocabulary.h"  // generated from vibrofriction/vocabulary.py: defaults, list sizes
+
 namespace vibrofriction {
 
 inline constexpr double kPi = 3.14159265358979323846;
@@ -31,12 +33,12 @@ enum class Law : int { kCoulomb = 0, kDahl = 1, kDupont = 2, kLuGre = 3, kGms = 
 // sticks (dz_i/dt = v); it slips once its force reaches its level in the direction of motion,
 // and then its force relaxes towards weight_i g(v) sgn(v) with the time constant
 // relaxation_time (0: at once, an ideal Jenkins element), until the motion reverses.
-inline constexpr int kMaxGmsElements = 16;
 struct GmsElements {
   int count = 0;
   double stiffness[kMaxGmsElements] = {};  // k_i (N/m)
   double weight[kMaxGmsElements] = {};     // share of the level g(v), summing to 1 (-)
-  double relaxation_time = 0.0;            // tau (s) of a slipping element's force
+  // tau (s) of a slipping element's force
+  double relaxation_time = defaults::kGmsRelaxationTime;
 };
 
 // A friction level that varies smoothly along a coordinate (the relative position: a
@@ -46,13 +48,12 @@ struct GmsElements {
 // the ends), or periodic when period > 0. Beyond the knots s stays at its end value
 // (constant_ends, a position or a time) or goes on along its end slope (a speed: the map
 // generalises a viscous term). count 0: off.
-inline constexpr int kMaxMapKnots = 16;
 struct LevelMap {
   int count = 0;
   double knot[kMaxMapKnots] = {};       // increasing; periodic: within one period
   double factor[kMaxMapKnots] = {};     // relative change of the level at the knot (-)
   double curvature[kMaxMapKnots] = {};  // the spline's second derivatives (SetUp)
-  double period = 0.0;                  // > 0: periodic (m)
+  double period = defaults::kPositionMapPeriod;  // > 0: periodic (m)
   bool constant_ends = true;
 
   // Computes the curvatures; false when the knots do not increase (or, periodic, do not fit
@@ -96,28 +97,29 @@ ListCheck MakeGmsElements(const double* stiffness, const double* weight, int cou
 ListCheck MakeLevelMap(const double* knots, const double* factors, int count, double period,
                        bool nonnegative_knots, LevelMap* out);
 
-// Parameters of one friction element; names follow the Python FrictionParameters.
+// Parameters of one friction element; names follow the Python FrictionParameters, defaults are
+// the table's (vocabulary.py through the generated vocabulary.h).
 struct LawParameters {
   Law law = Law::kDahl;
-  double friction_coefficient = 0.2;         // mu (-)
+  double friction_coefficient = defaults::kMu;  // mu (-)
   double normal_force = 0.0;                 // F_N (N), constant part
-  double contact_stiffness = 8e7;            // k_t = sigma0 (N/m)
-  double alpha = 1.0;                        // Dahl shape exponent (-)
-  double breakaway_ratio = 0.7;              // Dupont z_ba / z_ss at the Coulomb level (-)
-  double bristle_damping = 0.0;              // sigma1 (N s/m)
-  double viscous = 0.0;                      // sigma2 (N s/m)
-  double static_ratio = 1.0;                 // F_s / F_c (-)
-  double stribeck_velocity = 1e-3;           // v_s (m/s)
+  double contact_stiffness = defaults::kStiffness;  // k_t = sigma0 (N/m)
+  double alpha = defaults::kAlpha;  // Dahl shape exponent (-)
+  double breakaway_ratio = defaults::kBreakaway;  // Dupont z_ba / z_ss at the Coulomb level (-)
+  double bristle_damping = defaults::kSigma1;  // sigma1 (N s/m)
+  double viscous = defaults::kViscous;  // sigma2 (N s/m)
+  double static_ratio = defaults::kStaticRatio;  // F_s / F_c (-)
+  double stribeck_velocity = defaults::kStribeckVelocity;  // v_s (m/s)
   // effects, 0 = off
-  double asymmetry = 0.0;                    // level x(1+a) for v>0, x(1-a) for v<0
-  double ripple = 0.0;                       // level x(1 + r sin(2 pi x/lambda + phi))
-  double ripple_wavelength = 1e-3;           // lambda (m)
-  double ripple_phase = 0.0;                 // phi (rad)
-  double normal_modulation = 0.0;            // F_N x(1 + m sin(2 pi f_m t + phi_m))
-  double normal_modulation_frequency = 0.0;  // f_m (Hz)
-  double normal_modulation_phase = 0.0;      // phi_m (rad)
-  double force_offset = 0.0;                 // constant added to F (N)
-  double contact_play = 0.0;                 // width b of a play before the bristles (m)
+  double asymmetry = defaults::kAsymmetry;  // level x(1+a) for v>0, x(1-a) for v<0
+  double ripple = defaults::kRipple;  // level x(1 + r sin(2 pi x/lambda + phi))
+  double ripple_wavelength = defaults::kRippleWavelength;  // lambda (m)
+  double ripple_phase = defaults::kRipplePhase;  // phi (rad)
+  double normal_modulation = defaults::kNormalModulation;  // F_N x(1 + m sin(2 pi f_m t + phi_m))
+  double normal_modulation_frequency = defaults::kModulationFrequency;  // f_m (Hz)
+  double normal_modulation_phase = defaults::kModulationPhase;  // phi_m (rad)
+  double force_offset = defaults::kForceOffset;  // constant added to F (N)
+  double contact_play = defaults::kContactPlay;  // width b of a play before the bristles (m)
   GmsElements gms;                           // law gms only
   LevelMap position_map;                     // level x factor along the relative position
   LevelMap velocity_map = LevelMap::WithLinearEnds();  // level x factor over the speed |v|

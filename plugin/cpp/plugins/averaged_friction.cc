@@ -16,13 +16,6 @@ namespace {
 
 using namespace keys;  // NOLINT: the shared MJCF keys (element_config.h)
 
-constexpr char kAxisAngle[] = "axis_angle";
-constexpr char kUseCtrl[] = "use_ctrl";
-
-const char* const kAttributes[] = {
-    kMu, kNormal, kNormalSensor, kNormalGain, kNormalComponent, kContactGeom1, kContactGeom2,
-    kViscous, kStaticRatio, kStribeckVelocity, kVelocityAmplitude, kAxisAngle, kUseCtrl,
-    kTableXi, kTableAngle, kTableAlong, kTableAcross, kTableChecksum};
 
 constexpr char kPlugin[] = "vibrofriction.averaged";
 
@@ -313,11 +306,11 @@ bool ReadAveragedLaw(const mjModel* m, int instance, const char* plugin, LawPara
                      double* velocity_amplitude) {
   LawParameters& p = *law;
   p.law = Law::kCoulomb;
-  if (!ReadNumber(m, instance, plugin, kMu, 0.2, &p.friction_coefficient) ||
-      !ReadNumber(m, instance, plugin, kViscous, 0.0, &p.viscous) ||
-      !ReadNumber(m, instance, plugin, kStaticRatio, 1.0, &p.static_ratio) ||
-      !ReadNumber(m, instance, plugin, kStribeckVelocity, 1e-3, &p.stribeck_velocity) ||
-      !ReadNumber(m, instance, plugin, kVelocityAmplitude, 0.0, velocity_amplitude)) {
+  if (!ReadNumber(m, instance, plugin, kMu, &p.friction_coefficient) ||
+      !ReadNumber(m, instance, plugin, kViscous, &p.viscous) ||
+      !ReadNumber(m, instance, plugin, kStaticRatio, &p.static_ratio) ||
+      !ReadNumber(m, instance, plugin, kStribeckVelocity, &p.stribeck_velocity) ||
+      !ReadNumber(m, instance, plugin, kVelocityAmplitude, velocity_amplitude)) {
     return false;
   }
   if (p.friction_coefficient < 0) {
@@ -343,7 +336,7 @@ bool AveragedConfig::FromModel(const mjModel* m, int instance, AveragedConfig* c
   AveragedConfig c;
   LawParameters& p = c.coulomb;
   if (!ReadAveragedLaw(m, instance, kPlugin, &p, &c.velocity_amplitude) ||
-      !ReadNumber(m, instance, kPlugin, kAxisAngle, 0.0, &c.axis_angle)) {
+      !ReadNumber(m, instance, kPlugin, kAxisAngle, &c.axis_angle)) {
     return false;
   }
   c.axis_cos = std::cos(c.axis_angle);
@@ -366,12 +359,8 @@ bool AveragedConfig::FromModel(const mjModel* m, int instance, AveragedConfig* c
 }
 
 void AveragedFriction::Compute(const mjModel* m, mjData* d, int instance) {
+  if (!RefreshOrZeroForces(config_, m, d, instance)) return;
   const int* out = config_->transmission.output;
-  if (!config_.Refresh(m, instance)) {
-    if (out[0] >= 0) d->actuator_force[out[0]] = 0;
-    if (out[1] >= 0) d->actuator_force[out[1]] = 0;
-    return;
-  }
   double amplitude = config_->velocity_amplitude;
   if (config_->use_ctrl) {
     amplitude *= std::max(0.0, d->ctrl[m->actuator_ctrladr[config_->transmission.actuator[0]]]);
@@ -413,14 +402,8 @@ void AveragedFriction::Advance(const mjModel* m, mjData* d, int instance) {
 }
 
 void AveragedFriction::RegisterPlugin() {
-  mjpPlugin plugin;
-  mjp_defaultPlugin(&plugin);
-  plugin.name = kName;
-  plugin.capabilityflags |= mjPLUGIN_ACTUATOR;
-  plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
-  plugin.attributes = kAttributes;
-  SetPluginCallbacks<AveragedFriction, &AveragedConfig::FromModel>(&plugin);
-  mjp_registerPlugin(&plugin);
+  RegisterElementPlugin<AveragedFriction, &AveragedConfig::FromModel>(
+      kName, attributes::kAveraged, mjPLUGIN_ACTUATOR);
 }
 
 void RegisterPlanarPlugins() {

@@ -17,30 +17,14 @@ namespace {
 using namespace keys;  // NOLINT: the shared MJCF keys
 
 constexpr char kPlugin[] = "vibrofriction.contact";
-constexpr char kSupport[] = "support";
-constexpr char kTorsionRadius[] = "torsion_radius";
-constexpr char kSupportGeom[] = "support_geom";
 
-const char* const kAttributes[] = {
-    kLaw, kMu, kStiffness, kAlpha, kBreakaway, kSigma1, kViscous, kStaticRatio,
-    kStribeckVelocity, kNormalModulation, kModulationFrequency, kModulationPhase, kSupport,
-    kTorsionRadius, kSupportGeom};
 
 constexpr char kAveragedPlugin[] = "vibrofriction.contact_averaged";
-constexpr char kAxis[] = "axis";
 // The robot-timestep form: the table of vibrofriction.averaged over the generalized velocity.
-const char* const kAveragedAttributes[] = {
-    kMu, kViscous, kStaticRatio, kStribeckVelocity, kSupport, kTorsionRadius, kVelocityAmplitude,
-    kAxis, kTableXi, kTableAngle, kTableAlong, kTableAcross, kTableChecksum, kSupportGeom};
 
 constexpr char kFeederPlugin[] = "vibrofriction.contact_feeder";
-constexpr char kMapVelocity[] = "map_velocity";
-constexpr char kMapForce[] = "map_force";
 // Parts on a vibratory feeder at robot timesteps: the feeder map of
 // vibrofriction.robots.feeder_map.
-constexpr char kHelixPitch[] = "helix_pitch";
-const char* const kFeederAttributes[] = {kMu, kSupport, kTorsionRadius, kAxis, kMapVelocity,
-                                         kMapForce, kSupportGeom, kHelixPitch};
 
 // True when MuJoCo's body-pair mechanism never collides bodies b1 and b2: one weld group, or a
 // parent and a child weld group (not the world) while filterparent is on. An explicit <pair>
@@ -136,7 +120,7 @@ bool ContactConfig::FromModelFeeder(const mjModel* m, int instance, ContactConfi
   if (!c.ReadAxis(m, instance, plugin)) return false;
   // helix_pitch: a bowl feeder's spiral track about the support's z axis; the conveying
   // direction is the helix's tangent at the contact point, pointing up the spiral.
-  if (!ReadNumber(m, instance, plugin, kHelixPitch, 0.0, &c.helix_pitch)) return false;
+  if (!ReadNumber(m, instance, plugin, kHelixPitch, &c.helix_pitch)) return false;
   const char* axis_text = mj_getPluginConfig(m, instance, kAxis);
   if (c.helix_pitch != 0 && axis_text && axis_text[0]) {
     return ConfigError("%s: attributes 'axis' and 'helix_pitch' are both given; a helical track "
@@ -204,7 +188,7 @@ bool ContactConfig::ReadAxis(const mjModel* m, int instance, const char* plugin)
 bool ContactConfig::ReadPair(const mjModel* m, int instance, const char* plugin,
                              ReadScope scope) {
   ContactConfig& c = *this;
-  if (!ReadNumber(m, instance, plugin, kTorsionRadius, 0.0, &c.torsion_radius)) return false;
+  if (!ReadNumber(m, instance, plugin, kTorsionRadius, &c.torsion_radius)) return false;
   if (c.torsion_radius < 0) {
     return RejectAttribute(plugin, kTorsionRadius, c.torsion_radius,
                            "must be >= 0 (m; 0: from the contact points; a uniform-pressure disc "
@@ -730,8 +714,6 @@ void ContactFriction::WriteSensor(const mjModel* m, const mjData* d, int instanc
 namespace {
 
 constexpr char kSensorPlugin[] = "vibrofriction.contact_sensor";
-constexpr char kBody[] = "body";
-const char* const kSensorAttributes[] = {kBody};
 
 struct ContactSensorConfig {
   int element = -1;  // plugin instance of the contact element
@@ -777,18 +759,11 @@ class ContactSensor {
   }
 
   static void RegisterPlugin() {
-    mjpPlugin plugin;
-    mjp_defaultPlugin(&plugin);
-    plugin.name = kSensorPlugin;
-    plugin.capabilityflags |= mjPLUGIN_SENSOR;
-    plugin.nattribute = 1;
-    plugin.attributes = kSensorAttributes;
     // The element's force is computed with the passive forces: the velocity stage has it, and
     // an acceleration-stage plugin sensor would make MuJoCo run mj_rnePostConstraint each step.
-    plugin.needstage = mjSTAGE_VEL;
-    plugin.nsensordata = +[](const mjModel*, int, int) { return ContactFriction::kSensorDim; };
-    SetPluginCallbacks<ContactSensor, &ContactSensorConfig::FromModel>(&plugin);
-    mjp_registerPlugin(&plugin);
+    RegisterElementPlugin<ContactSensor, &ContactSensorConfig::FromModel,
+                          ContactFriction::kSensorDim, mjSTAGE_VEL>(
+        kSensorPlugin, attributes::kContactSensor, mjPLUGIN_SENSOR);
   }
 
  private:
@@ -800,34 +775,18 @@ class ContactSensor {
 
 void RegisterContactPlugins() {
   ContactFriction::RegisterPlugin();
-  mjpPlugin plugin;  // vibrofriction.contact_averaged: the same element with the averaged law
-  mjp_defaultPlugin(&plugin);
-  plugin.name = kAveragedPlugin;
-  plugin.capabilityflags |= mjPLUGIN_PASSIVE;
-  plugin.nattribute = sizeof(kAveragedAttributes) / sizeof(kAveragedAttributes[0]);
-  plugin.attributes = kAveragedAttributes;
-  SetPluginCallbacks<ContactFriction, &ContactConfig::FromModelAveraged>(&plugin);
-  mjp_registerPlugin(&plugin);
-  mjpPlugin feeder;  // vibrofriction.contact_feeder: the same element with a feeder's map
-  mjp_defaultPlugin(&feeder);
-  feeder.name = kFeederPlugin;
-  feeder.capabilityflags |= mjPLUGIN_PASSIVE;
-  feeder.nattribute = sizeof(kFeederAttributes) / sizeof(kFeederAttributes[0]);
-  feeder.attributes = kFeederAttributes;
-  SetPluginCallbacks<ContactFriction, &ContactConfig::FromModelFeeder>(&feeder);
-  mjp_registerPlugin(&feeder);
+  // vibrofriction.contact_averaged: the same element with the averaged law
+  RegisterElementPlugin<ContactFriction, &ContactConfig::FromModelAveraged>(
+      kAveragedPlugin, attributes::kContactAveraged, mjPLUGIN_PASSIVE);
+  // vibrofriction.contact_feeder: the same element with a feeder's map
+  RegisterElementPlugin<ContactFriction, &ContactConfig::FromModelFeeder>(
+      kFeederPlugin, attributes::kContactFeeder, mjPLUGIN_PASSIVE);
   ContactSensor::RegisterPlugin();
 }
 
 void ContactFriction::RegisterPlugin() {
-  mjpPlugin plugin;
-  mjp_defaultPlugin(&plugin);
-  plugin.name = kName;
-  plugin.capabilityflags |= mjPLUGIN_PASSIVE;
-  plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
-  plugin.attributes = kAttributes;
-  SetPluginCallbacks<ContactFriction, &ContactConfig::FromModel>(&plugin);
-  mjp_registerPlugin(&plugin);
+  RegisterElementPlugin<ContactFriction, &ContactConfig::FromModel>(
+      kName, attributes::kContact, mjPLUGIN_PASSIVE);
 }
 
 }  // namespace vibrofriction

@@ -17,21 +17,7 @@ namespace {
 using namespace keys;  // NOLINT: the shared MJCF keys (element_config.h)
 
 // Keys of this element only.
-constexpr char kAsymmetry[] = "asymmetry";
-constexpr char kRipple[] = "ripple";
-constexpr char kRippleWavelength[] = "ripple_wavelength";
-constexpr char kRipplePhase[] = "ripple_phase";
-constexpr char kForceOffset[] = "force_offset";
-constexpr char kContactPlay[] = "contact_play";
-constexpr char kSensorLag[] = "sensor_lag";
 
-const char* const kAttributes[] = {
-    kLaw, kMu, kNormal, kNormalSensor, kNormalGain, kNormalComponent, kContactGeom1,
-    kContactGeom2, kStiffness, kAlpha, kBreakaway, kSigma1, kViscous, kStaticRatio,
-    kStribeckVelocity, kAsymmetry, kRipple, kRippleWavelength, kRipplePhase, kNormalModulation,
-    kModulationFrequency, kModulationPhase, kForceOffset, kContactPlay, kSensorLag, kGmsStiffness,
-    kGmsWeight, kGmsRelaxationTime, kPositionMapKnots, kPositionMapFactors, kPositionMapPeriod,
-    kVelocityMapKnots, kVelocityMapFactors, kTimeMapKnots, kTimeMapFactors, kNormalFromCtrl};
 
 constexpr char kPlugin[] = "vibrofriction.friction";
 
@@ -99,19 +85,18 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
 
   const struct {
     const char* attr;
-    double* target;
-    double default_value;
+    double* target;  // (its default: the table's, vocabulary.h)
   } numbers[] = {
-      {kAsymmetry, &p.asymmetry, 0.0},
-      {kRipple, &p.ripple, 0.0},
-      {kRippleWavelength, &p.ripple_wavelength, 1e-3},
-      {kRipplePhase, &p.ripple_phase, 0.0},
-      {kForceOffset, &p.force_offset, 0.0},
-      {kContactPlay, &p.contact_play, 0.0},
-      {kSensorLag, &c.sensor_lag, 0.0},
+      {kAsymmetry, &p.asymmetry},
+      {kRipple, &p.ripple},
+      {kRippleWavelength, &p.ripple_wavelength},
+      {kRipplePhase, &p.ripple_phase},
+      {kForceOffset, &p.force_offset},
+      {kContactPlay, &p.contact_play},
+      {kSensorLag, &c.sensor_lag},
   };
   for (const auto& spec : numbers) {
-    if (!ReadNumber(m, instance, kPlugin, spec.attr, spec.default_value, spec.target)) {
+    if (!ReadNumber(m, instance, kPlugin, spec.attr, spec.target)) {
       return false;
     }
   }
@@ -497,14 +482,8 @@ int FrictionElement::StateSize(const mjModel* m, int instance) {
 }
 
 void FrictionElement::RegisterPlugin() {
-  mjpPlugin plugin;
-  mjp_defaultPlugin(&plugin);
-  plugin.name = kName;
-  plugin.capabilityflags |= mjPLUGIN_ACTUATOR;
-  plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
-  plugin.attributes = kAttributes;
-  SetPluginCallbacks<FrictionElement, &FrictionConfig::FromModel>(&plugin);
-  mjp_registerPlugin(&plugin);
+  RegisterElementPlugin<FrictionElement, &FrictionConfig::FromModel>(
+      kName, attributes::kFriction, mjPLUGIN_ACTUATOR);
 }
 
 }  // namespace vibrofriction

@@ -8,10 +8,7 @@
 namespace vibrofriction {
 namespace {
 
-constexpr char kTendon[] = "tendon";
-constexpr char kTimeConstant[] = "time_constant";
-constexpr char kBeyondDeadband[] = "beyond_deadband";
-const char* const kAttributes[] = {kTendon, kTimeConstant, kBeyondDeadband};
+using namespace keys;  // NOLINT: the MJCF keys (vocabulary.h)
 constexpr char kPlugin[] = "vibrofriction.lagged_tendon";
 
 }  // namespace
@@ -31,7 +28,7 @@ bool LaggedTendonConfig::FromModel(const mjModel* m, int instance, LaggedTendonC
     ConfigError("%s: attribute 'tendon'=\"%s\" names no tendon of the model", kPlugin, name);
     return false;
   }
-  if (!ReadNumber(m, instance, kPlugin, kTimeConstant, 0.0, &c.time_constant)) return false;
+  if (!ReadNumber(m, instance, kPlugin, kTimeConstant, &c.time_constant)) return false;
   if (c.time_constant < 0) {
     return RejectAttribute(kPlugin, kTimeConstant, c.time_constant, "must be >= 0 (s)");
   }
@@ -75,16 +72,8 @@ void LaggedTendon::Advance(const mjModel* m, mjData* d, int instance) {
 }
 
 void LaggedTendon::RegisterPlugin() {
-  mjpPlugin plugin;
-  mjp_defaultPlugin(&plugin);
-  plugin.name = kName;
-  plugin.capabilityflags |= mjPLUGIN_SENSOR;
-  plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
-  plugin.attributes = kAttributes;
-  plugin.needstage = mjSTAGE_POS;
-  plugin.nsensordata = +[](const mjModel* m, int instance, int sensor_id) { return 1; };
-  SetPluginCallbacks<LaggedTendon, &LaggedTendonConfig::FromModel>(&plugin);
-  mjp_registerPlugin(&plugin);
+  RegisterElementPlugin<LaggedTendon, &LaggedTendonConfig::FromModel, 1, mjSTAGE_POS>(
+      kName, attributes::kLaggedTendon, mjPLUGIN_SENSOR);
 }
 
 }  // namespace vibrofriction

@@ -18,11 +18,6 @@ namespace {
 
 using namespace keys;  // NOLINT: the shared MJCF keys
 
-const char* const kAttributes[] = {
-    kLaw, kMu, kNormal, kNormalSensor, kNormalGain, kNormalComponent, kContactGeom1,
-    kContactGeom2, kStiffness, kAlpha, kBreakaway, kSigma1, kViscous, kStaticRatio,
-    kStribeckVelocity, kNormalModulation, kModulationFrequency, kModulationPhase, kGmsStiffness,
-    kGmsWeight, kGmsRelaxationTime};
 
 constexpr char kPlugin[] = "vibrofriction.planar";
 
@@ -259,12 +254,8 @@ LawInput PlanarFriction::Input(const mjModel* m, const mjData* d, int instance) 
 }
 
 void PlanarFriction::Compute(const mjModel* m, mjData* d, int instance) {
+  if (!RefreshOrZeroForces(config_, m, d, instance)) return;
   const int* out = config_->transmission.output;
-  if (!config_.Refresh(m, instance)) {
-    if (out[0] >= 0) d->actuator_force[out[0]] = 0;
-    if (out[1] >= 0) d->actuator_force[out[1]] = 0;
-    return;
-  }
   const LawParameters& p = config_->law;
   LawInput in = Input(m, d, instance);
   const double v[2] = {d->actuator_velocity[out[0]], d->actuator_velocity[out[1]]};
@@ -419,14 +410,8 @@ void PlanarFriction::GatherGms(const mjData* d, double* z) const {
 }
 
 void PlanarFriction::RegisterPlugin() {
-  mjpPlugin plugin;
-  mjp_defaultPlugin(&plugin);
-  plugin.name = kName;
-  plugin.capabilityflags |= mjPLUGIN_ACTUATOR;
-  plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
-  plugin.attributes = kAttributes;
-  SetPluginCallbacks<PlanarFriction, &PlanarConfig::FromModel>(&plugin);
-  mjp_registerPlugin(&plugin);
+  RegisterElementPlugin<PlanarFriction, &PlanarConfig::FromModel>(
+      kName, attributes::kPlanar, mjPLUGIN_ACTUATOR);
 }
 
 }  // namespace vibrofriction

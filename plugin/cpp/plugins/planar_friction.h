@@ -53,6 +53,19 @@ struct PlanarTransmission {
                         PlanarTransmission* out);
 };
 
+// A planar element's config made current for this step (CachedConfig::Refresh); when it
+// cannot be read, the element's two forces are zeroed (no force from a bad config) and false
+// returned. Both planar elements (planar, averaged) begin their Compute with it.
+template <class Config>
+bool RefreshOrZeroForces(CachedConfig<Config>& config, const mjModel* m, mjData* d,
+                         int instance) {
+  if (config.Refresh(m, instance)) return true;
+  const int* out = config->transmission.output;
+  if (out[0] >= 0) d->actuator_force[out[0]] = 0;
+  if (out[1] >= 0) d->actuator_force[out[1]] = 0;
+  return false;
+}
+
 // Response of the two transmissions to their forces over one semi-implicit Euler step:
 // v_next = v_free + B f, B = dt J M^-1 J' (row-major 2x2), every force known at this point
 // (passive, bias, applied, actuators other than these two) and the previous step's constraint

@@ -9,14 +9,7 @@
 namespace vibrofriction {
 namespace {
 
-constexpr char kPositionGain[] = "position_gain";
-constexpr char kVelocityGain[] = "velocity_gain";
-constexpr char kDriveGain[] = "drive_gain";
-constexpr char kSaturation[] = "saturation";
-constexpr char kSamplePeriod[] = "sample_period";
-constexpr char kCommandDelay[] = "command_delay";
-const char* const kAttributes[] = {kPositionGain, kVelocityGain, kDriveGain, kSaturation,
-                                   kSamplePeriod, kCommandDelay};
+using namespace keys;  // NOLINT: the MJCF keys (vocabulary.h)
 constexpr char kPlugin[] = "vibrofriction.sampled_pd";
 
 // plugin_state slots
@@ -29,12 +22,12 @@ bool SampledPdConfig::FromModel(const mjModel* m, int instance, SampledPdConfig*
                                 ReadScope /*scope*/) {
   SampledPdConfig c;
   double delay = 0.0;
-  if (!ReadNumber(m, instance, kPlugin, kPositionGain, 0.0, &c.position_gain) ||
-      !ReadNumber(m, instance, kPlugin, kVelocityGain, 0.0, &c.velocity_gain) ||
-      !ReadNumber(m, instance, kPlugin, kDriveGain, 1.0, &c.drive_gain) ||
-      !ReadNumber(m, instance, kPlugin, kSaturation, 0.0, &c.saturation) ||
-      !ReadNumber(m, instance, kPlugin, kSamplePeriod, 0.0, &c.sample_period) ||
-      !ReadNumber(m, instance, kPlugin, kCommandDelay, 0.0, &delay)) {
+  if (!ReadNumber(m, instance, kPlugin, kPositionGain, &c.position_gain) ||
+      !ReadNumber(m, instance, kPlugin, kVelocityGain, &c.velocity_gain) ||
+      !ReadNumber(m, instance, kPlugin, kDriveGain, &c.drive_gain) ||
+      !ReadNumber(m, instance, kPlugin, kSaturation, &c.saturation) ||
+      !ReadNumber(m, instance, kPlugin, kSamplePeriod, &c.sample_period) ||
+      !ReadNumber(m, instance, kPlugin, kCommandDelay, &delay)) {
     return false;
   }
   if (c.position_gain < 0) {
@@ -131,14 +124,8 @@ void SampledPd::Advance(const mjModel* m, mjData* d, int instance) {
 }
 
 void SampledPd::RegisterPlugin() {
-  mjpPlugin plugin;
-  mjp_defaultPlugin(&plugin);
-  plugin.name = kName;
-  plugin.capabilityflags |= mjPLUGIN_ACTUATOR;
-  plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
-  plugin.attributes = kAttributes;
-  SetPluginCallbacks<SampledPd, &SampledPdConfig::FromModel>(&plugin);
-  mjp_registerPlugin(&plugin);
+  RegisterElementPlugin<SampledPd, &SampledPdConfig::FromModel>(
+      kName, attributes::kSampledPd, mjPLUGIN_ACTUATOR);
 }
 
 }  // namespace vibrofriction

@@ -8,6 +8,7 @@
 #include <mujoco/mujoco.h>
 
 #include "common/plugin_util.h"
+#include "vocabulary.h"  // generated from vibrofriction/vocabulary.py
 #include "plugins/averaged_friction.h"
 #include "plugins/friction_element.h"
 #include "plugins/planar_friction.h"
@@ -15,8 +16,7 @@
 namespace vibrofriction {
 namespace {
 
-constexpr char kActuator[] = "actuator";
-const char* const kAttributes[] = {kActuator};
+using namespace keys;  // NOLINT: the MJCF keys (vocabulary.h)
 
 using Writer = void (*)(const mjModel* m, mjData* d, int instance, mjtNum* out);
 
@@ -29,6 +29,7 @@ void Write(const mjModel* m, mjData* d, int instance, mjtNum* out) {
 struct FrictionSensorSpec {
   static constexpr char kName[] = "vibrofriction.friction_sensor";
   static constexpr char kElements[] = "vibrofriction.friction";
+  static constexpr const auto& kAttributes = attributes::kFrictionSensor;
   static constexpr int kDim = FrictionElement::kSensorDim;
   static Writer Resolve(const char* element) {
     return std::strcmp(element, FrictionElement::kName) == 0 ? &Write<FrictionElement> : nullptr;
@@ -38,6 +39,7 @@ struct FrictionSensorSpec {
 struct PlanarSensorSpec {
   static constexpr char kName[] = "vibrofriction.planar_sensor";
   static constexpr char kElements[] = "vibrofriction.planar or vibrofriction.averaged";
+  static constexpr const auto& kAttributes = attributes::kPlanarSensor;
   static constexpr int kDim = PlanarFriction::kSensorDim;
   static_assert(AveragedFriction::kSensorDim == PlanarFriction::kSensorDim, "same layout");
   static Writer Resolve(const char* element) {
@@ -100,18 +102,9 @@ class StateSensor {
   }
 
   static void RegisterPlugin() {
-    mjpPlugin plugin;
-    mjp_defaultPlugin(&plugin);
-    plugin.name = Spec::kName;
-    plugin.capabilityflags |= mjPLUGIN_SENSOR;
-    plugin.nattribute = 1;
-    plugin.attributes = kAttributes;
-    plugin.needstage = mjSTAGE_ACC;  // after actuation: this step's friction force
-    plugin.nsensordata = +[](const mjModel* m, int instance, int sensor_id) {
-      return Spec::kDim;
-    };
-    SetPluginCallbacks<StateSensor, &SensorConfig::FromModel<Spec>>(&plugin);
-    mjp_registerPlugin(&plugin);
+    // after actuation (acceleration stage): this step's friction force
+    RegisterElementPlugin<StateSensor, &SensorConfig::FromModel<Spec>, Spec::kDim, mjSTAGE_ACC>(
+        Spec::kName, Spec::kAttributes, mjPLUGIN_SENSOR);
   }
 
  private:

@@ -6,20 +6,12 @@
 #include <utility>
 
 #include "common/plugin_util.h"
+#include "vocabulary.h"  // generated from vibrofriction/vocabulary.py
 
 namespace vibrofriction {
 namespace {
 
-constexpr char kFrequency[] = "frequency";
-constexpr char kVelocityAmplitude[] = "velocity_amplitude";
-constexpr char kVelocity[] = "velocity";
-constexpr char kPhase[] = "phase";
-constexpr char kStartTime[] = "start_time";
-constexpr char kRampPeriods[] = "ramp_periods";
-constexpr char kUseCtrl[] = "use_ctrl";
-constexpr char kDisplacementFromCtrl[] = "displacement_from_ctrl";
-const char* const kAttributes[] = {kFrequency, kVelocityAmplitude, kVelocity, kPhase, kUseCtrl,
-                                   kDisplacementFromCtrl, kStartTime, kRampPeriods};
+using namespace keys;  // NOLINT: the MJCF keys (vocabulary.h)
 constexpr char kPlugin[] = "vibrofriction.motion";
 constexpr double kPi = 3.14159265358979323846;
 
@@ -28,12 +20,12 @@ constexpr double kPi = 3.14159265358979323846;
 bool MotionConfig::FromModel(const mjModel* m, int instance, MotionConfig* config,
                              ReadScope scope) {
   MotionConfig c;
-  if (!ReadNumber(m, instance, kPlugin, kFrequency, 0.0, &c.frequency) ||
-      !ReadNumber(m, instance, kPlugin, kVelocityAmplitude, 0.0, &c.velocity_amplitude) ||
-      !ReadNumber(m, instance, kPlugin, kVelocity, 0.0, &c.velocity) ||
-      !ReadNumber(m, instance, kPlugin, kPhase, 0.0, &c.phase) ||
-      !ReadNumber(m, instance, kPlugin, kStartTime, 0.0, &c.start_time) ||
-      !ReadNumber(m, instance, kPlugin, kRampPeriods, 0.0, &c.ramp_periods)) {
+  if (!ReadNumber(m, instance, kPlugin, kFrequency, &c.frequency) ||
+      !ReadNumber(m, instance, kPlugin, kVelocityAmplitude, &c.velocity_amplitude) ||
+      !ReadNumber(m, instance, kPlugin, kVelocity, &c.velocity) ||
+      !ReadNumber(m, instance, kPlugin, kPhase, &c.phase) ||
+      !ReadNumber(m, instance, kPlugin, kStartTime, &c.start_time) ||
+      !ReadNumber(m, instance, kPlugin, kRampPeriods, &c.ramp_periods)) {
     return false;
   }
   if (!ReadBool(m, instance, kPlugin, kUseCtrl, false, &c.use_ctrl)) return false;
@@ -122,14 +114,8 @@ void SupportMotion::Compute(const mjModel* m, mjData* d, int instance) {
 }
 
 void SupportMotion::RegisterPlugin() {
-  mjpPlugin plugin;
-  mjp_defaultPlugin(&plugin);
-  plugin.name = kName;
-  plugin.capabilityflags |= mjPLUGIN_ACTUATOR;
-  plugin.nattribute = sizeof(kAttributes) / sizeof(kAttributes[0]);
-  plugin.attributes = kAttributes;
-  SetPluginCallbacks<SupportMotion, &MotionConfig::FromModel>(&plugin);
-  mjp_registerPlugin(&plugin);
+  RegisterElementPlugin<SupportMotion, &MotionConfig::FromModel>(
+      kName, attributes::kMotion, mjPLUGIN_ACTUATOR);
 }
 
 }  // namespace vibrofriction

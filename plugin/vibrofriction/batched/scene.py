@@ -121,7 +121,7 @@ def _element(name: str, plugin: str, config: dict, body: str) -> Element:
 
 def load_spec(scene) -> mujoco.MjSpec:
     """An MjSpec from an MJCF path, MJCF text or an MjSpec (copied: the caller's is kept)."""
-    from ..laws._native import load
+    from ..laws import load
     load()  # the C++ plugins: the scene compiles once with them (their checks)
     if isinstance(scene, mujoco.MjSpec):
         return scene.copy()

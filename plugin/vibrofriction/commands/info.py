@@ -15,9 +15,8 @@ from typing import Any
 
 import mujoco
 
-from .. import __version__, _build_info
-from ..laws._mujoco_plugins import library_path
-from ..laws._native import MujocoVersionMismatch, load
+from .. import __version__, build_info
+from ..laws import MujocoVersionMismatch, library_path, load
 from .common import write_json
 
 HELP = ("show the versions, the plugin library and the plugins with their MJCF attributes "
@@ -71,7 +70,7 @@ def info() -> dict[str, Any]:
         plugins, error = [], str(exc)
     return {
         "versions": {"vibrofriction": __version__, "mujoco": mujoco.__version__,
-                     "mujoco_built_against": _build_info.MUJOCO_VERSION},
+                     "mujoco_built_against": build_info.MUJOCO_VERSION},
         "library": str(library_path()),
         # (declared by the installed package; it loads the library at `import mujoco`)
         "entry_point_installed": any(ep.value == ENTRY_POINT

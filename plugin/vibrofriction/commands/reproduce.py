@@ -11,7 +11,7 @@ from .common import add_common_arguments, check_replaceable_folder, parse_overri
 from .sweep import add_method_argument
 from ..data.datasets import all_or_nothing, stage_folder
 from ..params import PAPER_CONTACT_STIFFNESS_N_PER_M, ParameterError, apply_overrides
-from ..study.claims import _clean, summary_json
+from ..study.claims import json_ready, summary_json
 from ..study.config import PAPER_RIG, StudyConfig
 from ..study.reproduce import DEFAULT_OUT, reproduce, study_config
 
@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
         stage_folder(args.out, write)
         results, claims = made["results"], made["claims"]
         if args.json_path is not None:
-            write_json(args.json_path, _clean(summary_json(results, claims)))
+            write_json(args.json_path, json_ready(summary_json(results, claims)))
     held = sum(1 for c in claims if c.holds == "yes")
     print(f"wrote {args.out}/summary.md, claims.json and {len(results.files)} files; "
           f"{held} of {len(claims)} claims hold in this run ({results.wall_s:.0f} s)")

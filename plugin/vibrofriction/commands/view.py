@@ -25,7 +25,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def bundled_scenes() -> dict[str, Path]:
-    from ..rigs.rig import MJCF_DIR
+    from ..sim import MJCF_DIR
     scenes = {"rig": MJCF_DIR / "rig" / "scene_dahl.xml", "emps": MJCF_DIR / "emps" / "emps.xml"}
     scenes.update({f"rig-{p.stem[len('scene_'):]}": p
                    for p in sorted((MJCF_DIR / "rig").glob("scene_*.xml"))})
@@ -63,7 +63,7 @@ def has_display() -> bool:
 def run(args: argparse.Namespace) -> int:
     import mujoco
 
-    from ..laws._native import load
+    from ..laws import load
     path = scene_file(args.scene)
     load()
     try:

@@ -66,8 +66,8 @@ class Problem:
 
     def metrics(self, model: Model, values: Mapping[str, float]) -> tuple[Metrics, list[Metrics]]:
         train, held = self.predicted(model, values)
-        return (_metrics(self.train.name, train, self.measured),
-                [_metrics(record.name, predicted, measured) for record, predicted, measured
+        return (record_metrics(self.train.name, train, self.measured),
+                [record_metrics(record.name, predicted, measured) for record, predicted, measured
                  in zip(self.validation, held, self.validation_measured)])
 
     def predicted(self, model: Model, values: Mapping[str, float]
@@ -99,15 +99,15 @@ class Problem:
         uncertainties = _uncertainties(model, q, jac, rss, len(residual), n_eff)
         train, held = self.metrics(model, values)
         lo, hi = model.bounds()
-        at_bound = tuple(_value_name(p.name) for p, x, a, b in zip(model.params, q, lo, hi)
+        at_bound = tuple(value_name(p.name) for p, x, a, b in zip(model.params, q, lo, hi)
                          if min(x - a, b - x) <= 1e-6 * max(1.0, abs(x))
-                         and _value_name(p.name) in values)
+                         and value_name(p.name) in values)
         return FitResult(model=model, q=np.array(q), values=values, residual=residual, rss=rss,
                          n_eff=n_eff, uncertainties=uncertainties, train=train,
                          validation=held, nfev=nfev, notes=list(notes), at_bound=at_bound)
 
 
-def _value_name(internal: str) -> str:
+def value_name(internal: str) -> str:
     """The reported value an internal coordinate moves (a map's free factor c_i: factor_i)."""
     for prefix in ("position_map_c", "velocity_map_c", "time_map_c"):
         if internal.startswith(prefix):
@@ -115,7 +115,7 @@ def _value_name(internal: str) -> str:
     return internal
 
 
-def _metrics(name: str, predicted: np.ndarray, measured: np.ndarray) -> Metrics:
+def record_metrics(name: str, predicted: np.ndarray, measured: np.ndarray) -> Metrics:
     error = predicted - measured
     norm = float(np.linalg.norm(measured))
     return Metrics(dataset=name, rmse_N=float(np.sqrt(np.mean(error ** 2))),

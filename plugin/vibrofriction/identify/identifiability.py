@@ -315,11 +315,11 @@ def presliding(law: str, values: Mapping[str, float], normal_force_N: float,
 
 def bound_sides(model: Model, q: np.ndarray) -> dict[str, str]:
     """Fitted value -> "lower"/"upper" where its internal coordinate ended at a bound."""
-    from .fit import _value_name
+    from .fit import value_name
     out: dict[str, str] = {}
     lo, hi = model.bounds()
     for p, x, a, b in zip(model.params, np.asarray(q, dtype=float), lo, hi):
-        name = _SINE_PAIRS.get(p.name, _value_name(p.name))
+        name = _SINE_PAIRS.get(p.name, value_name(p.name))
         if x - a <= BOUND_TOLERANCE * max(1.0, abs(a)):
             out[name] = "lower"
         elif b - x <= BOUND_TOLERANCE * max(1.0, abs(b)):

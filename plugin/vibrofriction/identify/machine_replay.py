@@ -33,6 +33,8 @@ from typing import Mapping, Sequence
 import mujoco
 import numpy as np
 
+from .. import sim
+from ..laws import load
 from ..rigs import rig as rig_module
 from ..data.datasets import Dataset, smoothed_derivative
 from ..errors import InputError
@@ -101,7 +103,7 @@ class MachineScene:
         if not Path(path).is_file():
             raise InputError(f"model {where} does not exist; name a bundled model "
                              f"({', '.join(sorted(BUNDLED))}) or an MJCF file")
-        rig_module.load()
+        load()
         try:
             spec = mujoco.MjSpec.from_file(str(path))
             model = spec.compile()
@@ -221,7 +223,7 @@ class MachineScene:
         return tuple(c for c in (self.controller_input,) if c) + ("position_m",)
 
 
-BUNDLED = {"emps": rig_module.MJCF_DIR / "emps" / "emps.xml"}
+BUNDLED = {"emps": sim.MJCF_DIR / "emps" / "emps.xml"}
 # Effects a machine record cannot have: no drive spring, the drive force is a logged command.
 NOT_APPLICABLE = {
     "drive_damping": "a machine has no drive spring (its damping is viscous friction)",
@@ -303,7 +305,7 @@ class MachineReplay(SampleGrid):
         """The machine scene with these values (``probes``: with the sensors identification
         reads; without, ``to_xml()`` writes the fitted scene as the user's, values changed;
         ``scene_values``: its named values, e.g. ``joint_damping_N_s_per_m``)."""
-        rig_module.load()
+        load()
         friction.validate()
         scene = self.scene
         spec = mujoco.MjSpec.from_file(str(scene.path))
@@ -328,7 +330,7 @@ class MachineReplay(SampleGrid):
                     config[key] = scene.friction_config[key]
                 else:
                     config.pop(key, None)
-        rig_module.set_plugin_config(spec, scene.friction_instance, config)
+        sim.set_plugin_config(spec, scene.friction_instance, config)
         # one deflection per element for law gms, one for every other law
         spec.actuator(FRICTION_ACTUATOR).actdim = len(friction.gms_stiffness_N_per_m) \
             if friction.law == "gms" else 1
@@ -337,7 +339,7 @@ class MachineReplay(SampleGrid):
             # sample interval, the one the timestep divides (a period that is not a whole
             # number of steps slips against the record's samples within seconds).
             controller = next(p for p in spec.plugins if p.name == scene.controller)
-            rig_module.set_plugin_config(spec, scene.controller, {
+            sim.set_plugin_config(spec, scene.controller, {
                 **dict(controller.config), "sample_period": repr(self.sample_interval_s)})
         if probes:
             for name, kind, objtype, target in (
@@ -379,12 +381,12 @@ class MachineReplay(SampleGrid):
         else:
             contact_at_rest(model, data, friction, self.initial_friction_N,
                             self.rig.normal_force_N)
-        return rig_module.full_state(model, data)
+        return sim.full_state(model, data)
 
     def outputs(self, model: mujoco.MjModel, rig: RigParameters, sensordata: np.ndarray,
                 names: Sequence[str]) -> dict[str, np.ndarray]:
         def sensor(name: str) -> np.ndarray:
-            return rig_module.sensor_columns(model, sensordata, name)
+            return sim.sensor_columns(model, sensordata, name)
 
         mapped = self.scene.outputs
         out = {}
@@ -467,7 +469,7 @@ def _sample_interval(time_s: np.ndarray) -> float:
 
 def _control(scene: MachineScene, inputs: dict[str, np.ndarray], n: int,
              substeps: int) -> np.ndarray:
-    rig_module.load()
+    load()
     model = mujoco.MjModel.from_xml_path(str(scene.path))  # (actuator ids only)
     nstep = grid_steps(n, substeps, None)
     control = np.zeros((nstep, model.nu))

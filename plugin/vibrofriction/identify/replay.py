@@ -46,6 +46,7 @@ from scipy.signal import butter, sosfiltfilt
 from scipy.linalg import LinAlgError, solve_banded, solveh_banded
 from scipy.sparse import coo_matrix, csr_matrix
 
+from .. import sim
 from ..rigs import rig as rig_module
 from ..data.datasets import Dataset, smoothed_derivative, white_noise_sd
 from ..errors import InputError
@@ -421,7 +422,7 @@ class RigReplay(SampleGrid):
                   self.rig.drive_velocity_m_per_s)
         if friction.law != "coulomb" and model.na:
             data.act[model.actuator("friction").actadr[0]] = z
-        return rig_module.full_state(model, data)
+        return sim.full_state(model, data)
 
     def halved(self) -> "RigReplay":
         """The same replay at half the timestep: the step ends in between by linear
@@ -458,13 +459,13 @@ class RigReplay(SampleGrid):
             friction = replace(friction, sensor_lag_s=0.0)
         spec = rig_module.build_spec(rig, friction, self.timestep_s)
         for name in ("table_shaker", "drive_end_motion"):
-            rig_module.set_plugin_config(spec, name, {"displacement_from_ctrl": "true"})
+            sim.set_plugin_config(spec, name, {"displacement_from_ctrl": "true"})
         if self.normal_force_from_record:
-            rig_module.set_plugin_config(spec, "friction", {
+            sim.set_plugin_config(spec, "friction", {
                 **rig_module.friction_config(rig, friction), "normal": "0.0",
                 "normal_gain": "1.0", "normal_from_ctrl": "true"})
         if self.lagged_sensor == "dynamometer":
-            rig_module.set_plugin_config(spec, "dynamometer",
+            sim.set_plugin_config(spec, "dynamometer",
                                          rig_module.dynamometer_config(rig, lag_s))
         if outputs is not None:
             keep = {s for name in outputs for s in SENSORS_OF_OUTPUT[name]}
@@ -496,7 +497,7 @@ class RigReplay(SampleGrid):
                             normal, self.initial_position_m - self.initial_support_position_m)
         else:
             contact_at_rest(model, data, friction, self.initial_friction_N, normal)
-        return rig_module.full_state(model, data)
+        return sim.full_state(model, data)
 
 
 class Replayer:
@@ -511,7 +512,7 @@ class Replayer:
     def __init__(self, replay: RigReplay, threads: int | None = None,
                  segment_steps: Sequence[int] = ()):
         self.replay = replay
-        self.threads = max(1, threads or rig_module._cpu_count())
+        self.threads = max(1, threads or sim.cpu_count())
         self._pool = mj_rollout.Rollout(nthread=self.threads)
         self.simulations = 0
         self.segment_starts = [0, *segment_steps]
@@ -606,7 +607,7 @@ class Replayer:
 def _channels(model: mujoco.MjModel, rig: RigParameters, sensordata: np.ndarray,
               names: Sequence[str]) -> dict[str, np.ndarray]:
     def sensor(name: str) -> np.ndarray:
-        return rig_module.sensor_columns(model, sensordata, name)
+        return sim.sensor_columns(model, sensordata, name)
 
     out = {}
     for name in names:

@@ -30,7 +30,7 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from ..rigs import rig as rig_module
+from .. import sim
 from ..data.datasets import Dataset
 from ..errors import InputError
 from ..params import FrictionParameters
@@ -128,7 +128,7 @@ def identify(train: Dataset, validation: Sequence[Dataset] = (), *, law: str = "
     baseline_analysis = analyse(record, baseline.residual)
     remaining = [e for e in inverse_effects() if e not in declared and e not in skipped
                  and e not in excluded_by(declared)]
-    workers = threads or min(len(remaining) or 1, rig_module._cpu_count())
+    workers = threads or min(len(remaining) or 1, sim.cpu_count())
     with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
         back_end = _InverseRounds(problem, scales, min_improvement, bic_threshold, pool, say)
         selection = select(back_end, baseline, remaining, say)

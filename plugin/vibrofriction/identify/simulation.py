@@ -60,7 +60,7 @@ from ..errors import InputError
 from ..params import FrictionParameters, RigParameters, lugre_default_bristle_damping
 from .analysis import effective_samples, uniform_spectrum
 from .driver import held_out_evidence, select
-from .fit import Metrics, _metrics
+from .fit import Metrics, record_metrics
 from .model import (MODULATION_HARMONICS, Model, Scales, effect_internals, excluded_by,
                     forward_steps, modulation_not_applicable, simulation_effects,
                     without_declared)
@@ -472,12 +472,12 @@ class SimulationProblem:
         predicted = self.predict(model, [values], extra)[0]
         residual = self.weighted(predicted)
         rss = float(residual @ residual)
-        channels = {c: _metrics(self.train.name, predicted[c], self.train.measured[c])
+        channels = {c: record_metrics(self.train.name, predicted[c], self.train.measured[c])
                     for c in self.train.channels}
         held, held_predicted = [], []
         for replay, runner in zip(self.validation, self.held_runners):
             out = runner.run([self.case(model, values, replay)])[0]
-            held.append(_metrics(replay.name, out[self.primary], replay.measured[self.primary]))
+            held.append(record_metrics(replay.name, out[self.primary], replay.measured[self.primary]))
             held_predicted.append(out)  # (kept for the report's series: no second replay)
         lo, hi = model.bounds()
         at_bound = tuple(p.name for p, x, a, b in zip(model.params, q, lo, hi)

@@ -3,7 +3,7 @@
 ``register`` is the package's entry point in the group ``mujoco.plugins`` (pyproject.toml),
 which mujoco's ``__init__`` calls at its end. It loads the plugin library and nothing else: it
 may run while ``import vibrofriction`` is itself half done (that import imports mujoco), so it
-uses no other module of the package but the generated ``_build_info``. (Importing it runs the
+uses no other module of the package but the generated ``build_info``. (Importing it runs the
 package's ``__init__`` and that of ``vibrofriction.laws`` inside mujoco's unfinished import: keep
 both light, with no module that needs mujoco fully imported at its top level.)
 ``vibrofriction.load()`` loads the same file by the same absolute path: MuJoCo's second
@@ -49,9 +49,9 @@ def register() -> None:
     """Load the plugin library into MuJoCo (mujoco turns an exception here into a warning)."""
     import mujoco  # (mid-import when mujoco calls this: its functions are already defined)
 
-    from .. import _build_info
+    from .. import build_info
 
-    message = version_mismatch(_build_info.MUJOCO_VERSION, mujoco.mj_versionString())
+    message = version_mismatch(build_info.MUJOCO_VERSION, mujoco.mj_versionString())
     if message:
         raise ImportError(message)
     path = library_path()

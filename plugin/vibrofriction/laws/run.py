@@ -12,7 +12,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ._native import _LawLists, _LawParameters, load
+from ._native import LawLists, LawParameters, load
 from ..params import PAPER_NORMAL_FORCE_N, FrictionParameters, ParameterError
 from ..vocabulary import ALL_LAWS, FRICTION_TERMS
 
@@ -26,15 +26,15 @@ class LawRun:
     element_deflection_m: np.ndarray | None = None  # law gms: (n, elements) z_i, else None
 
 
-def _c_parameters(friction: FrictionParameters, normal_force_N: float) -> _LawParameters:
-    return _LawParameters(
+def c_law_parameters(friction: FrictionParameters, normal_force_N: float) -> LawParameters:
+    return LawParameters(
         law=ALL_LAWS.index(friction.law),
         normal_force=normal_force_N,
         **{term.law_field: getattr(friction, term.name) for term in FRICTION_TERMS
            if term.law_field})
 
 
-def _as_c_array(values, n: int, name: str) -> np.ndarray:
+def c_array(values, n: int, name: str) -> np.ndarray:
     array = np.ascontiguousarray(values, dtype=np.float64)
     if array.shape != (n,):
         raise ParameterError(f"{name} has shape {array.shape}, expected ({n},)")
@@ -43,20 +43,20 @@ def _as_c_array(values, n: int, name: str) -> np.ndarray:
     return array
 
 
-def _time_argument(time_s) -> np.ndarray:
+def c_time_argument(time_s) -> np.ndarray:
     """The sample times as a C array, checked strictly increasing."""
     t = np.ascontiguousarray(time_s, dtype=np.float64)
-    t = _as_c_array(t, t.shape[0], "time_s")
+    t = c_array(t, t.shape[0], "time_s")
     if t.shape[0] > 1 and not np.all(np.diff(t) > 0):
         raise ParameterError("time_s must be strictly increasing")
     return t
 
 
-def _normal_argument(normal_force_N, n: int) -> tuple[float, np.ndarray | None]:
+def c_normal_argument(normal_force_N, n: int) -> tuple[float, np.ndarray | None]:
     """(constant normal force, None) for a scalar, (0, C array of n samples) for an array."""
     if np.ndim(normal_force_N) == 0:
         return float(normal_force_N), None
-    return 0.0, _as_c_array(normal_force_N, n, "normal_force_N")
+    return 0.0, c_array(normal_force_N, n, "normal_force_N")
 
 
 def run_law(friction: FrictionParameters, time_s, relative_velocity_m_per_s, *,
@@ -73,21 +73,21 @@ def run_law(friction: FrictionParameters, time_s, relative_velocity_m_per_s, *,
     """
     friction.validate()
     lib = load()
-    t = _time_argument(time_s)
+    t = c_time_argument(time_s)
     n = t.shape[0]
-    v = _as_c_array(relative_velocity_m_per_s, n, "relative_velocity_m_per_s")
-    constant_normal, normal_array = _normal_argument(normal_force_N, n)
-    position = None if position_m is None else _as_c_array(position_m, n, "position_m")
+    v = c_array(relative_velocity_m_per_s, n, "relative_velocity_m_per_s")
+    constant_normal, normal_array = c_normal_argument(normal_force_N, n)
+    position = None if position_m is None else c_array(position_m, n, "position_m")
     stiffness = np.ascontiguousarray(friction.gms_stiffness_N_per_m, dtype=np.float64)
     count = stiffness.shape[0] if friction.law == "gms" else 1
     if np.ndim(initial_deflection_m) == 0:
         z0 = np.full(count, float(initial_deflection_m))
     else:
-        z0 = _as_c_array(initial_deflection_m, count, "initial_deflection_m")
+        z0 = c_array(initial_deflection_m, count, "initial_deflection_m")
     force = np.empty(n)
     deflection = np.empty((n, count))
     lists, keep = _c_lists(friction)
-    params = _c_parameters(friction, constant_normal)
+    params = c_law_parameters(friction, constant_normal)
     status = lib.vf_run_law_with_lists(ctypes.byref(params), ctypes.byref(lists), n, _ptr(t),
                                        _ptr(v), _ptr(position), _ptr(normal_array), _ptr(z0),
                                        _ptr(force), _ptr(deflection))
@@ -148,7 +148,7 @@ def _ptr(array: np.ndarray | None):
     return None if array is None else array.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
 
 
-def _c_lists(friction: FrictionParameters) -> tuple[_LawLists, list[np.ndarray]]:
+def _c_lists(friction: FrictionParameters) -> tuple[LawLists, list[np.ndarray]]:
     """The C lists struct and the arrays it points into (keep them alive through the call)."""
     def array(values) -> np.ndarray:
         return np.ascontiguousarray(values, dtype=np.float64)
@@ -159,7 +159,7 @@ def _c_lists(friction: FrictionParameters) -> tuple[_LawLists, list[np.ndarray]]
             array(friction.position_map_knots_m), array(friction.position_map_factors),
             array(friction.velocity_map_knots_m_per_s), array(friction.velocity_map_factors),
             array(friction.time_map_knots_s), array(friction.time_map_factors)]
-    lists = _LawLists(
+    lists = LawLists(
         gms_count=len(keep[0]), gms_stiffness=_ptr(keep[0]), gms_weight=_ptr(keep[1]),
         gms_relaxation_time=float(friction.gms_relaxation_time_s),
         position_map_count=len(keep[2]), position_map_knots=_ptr(keep[2]),

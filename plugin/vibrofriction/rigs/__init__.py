@@ -1,6 +1,8 @@
 """The rigs in MuJoCo, run on the native friction elements.
 
-* ``rig``: the paper's rig (mjcf_models/rig/): built from parameters, run, summarized;
+* ``rig``: the paper's rig (mjcf_models/rig/): run and summarized; ``rig_model``: the model
+  it runs (built from parameters, the timestep rule, its sensors read as a ``RigRun``; ``rig``
+  exports its names);
 * ``planar``: the planar element from Python and the rig in the plane;
 * ``steady``: runs until the mean drive force settles; ``sweep``: the master curve;
 * ``python_law``: the rig with the native element replaced by a law written in Python.

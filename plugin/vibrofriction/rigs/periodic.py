@@ -35,17 +35,17 @@ from __future__ import annotations
 import contextlib
 import math
 import threading
-import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Callable, Sequence
 
 import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
-from ..params import FrictionParameters, ParameterError, RigParameters, _plain
+from .. import sim
+from ..params import FrictionParameters, ParameterError, RigParameters, plain_value
 from ..summary import RunSummary
-from . import rig as rig_module
+from . import rig_model
 
 DEFAULT_STATE_TOLERANCE = 1e-8  # |G(x)| / orbit scale of each coordinate, at convergence
 DEFAULT_MULTIPLES = (1, 2, 3, 4)
@@ -272,14 +272,14 @@ def periodic(model: mujoco.MjModel, data: mujoco.MjData, period_s: float, *,
     residual stops falling. ``data`` is left at the returned orbit's start."""
     dt = model.opt.timestep
     if not (period_s > 0 and math.isfinite(period_s)):
-        raise PeriodicError(f"period {_plain(period_s)!r} must be a positive number of seconds")
+        raise PeriodicError(f"period {plain_value(period_s)!r} must be a positive number of seconds")
     steps = int(round(period_s / dt))
     if steps < 1 or not math.isclose(steps * dt, period_s, rel_tol=1e-6):
         raise PeriodicError(
-            f"period {_plain(period_s)} s is not a whole number of timesteps ({_plain(dt)} s: "
+            f"period {plain_value(period_s)} s is not a whole number of timesteps ({plain_value(dt)} s: "
             f"{period_s / dt:.6g} steps); set the timestep to period / N")
     if not (tolerance > 0 and math.isfinite(tolerance)):
-        raise PeriodicError(f"tolerance {_plain(tolerance)!r} must be a positive number")
+        raise PeriodicError(f"tolerance {plain_value(tolerance)!r} must be a positive number")
     mults = [int(m) for m in multiples]
     if not mults or any(m < 1 for m in mults):
         raise PeriodicError(f"multiples {list(multiples)!r} must be whole numbers >= 1")
@@ -298,7 +298,7 @@ def periodic(model: mujoco.MjModel, data: mujoco.MjData, period_s: float, *,
     drift_full = np.zeros(nfull) if drift is None else np.asarray(drift, dtype=float)
     if drift_full.shape != (nfull,) or not np.all(np.isfinite(drift_full)):
         raise PeriodicError(f"drift must be {nfull} finite numbers (one per full-state entry)")
-    start = rig_module.full_state(model, data)
+    start = sim.full_state(model, data)
     attempts: list[str] = []
     iterations = evaluations = steps_run = 0
     last: PeriodicOrbit | None = None
@@ -525,7 +525,7 @@ def rig_start(model: mujoco.MjModel, data: mujoco.MjData, rig: RigParameters,
     dt = model.opt.timestep
     t_start = 0.0
     if is_vibrating(rig) and rig.vibration_from_s > 0:
-        t_start = rig.vibration_from_s + rig_module.VIBRATION_RAMP_PERIODS / \
+        t_start = rig.vibration_from_s + rig_model.VIBRATION_RAMP_PERIODS / \
             rig.vibration_frequency_Hz
     data.time = t_start
     mujoco.mj_step(model, data, 2)  # the motion plugins put the table and drive end in place
@@ -562,7 +562,7 @@ def rig_coordinates(model: mujoco.MjModel, data: mujoco.MjData, probe_steps: int
         # they move; the dynamometer's (no lag in the rig) only record
         adr = plugin.start + int(model.plugin_stateadr[instance])
         own = np.arange(adr, adr + int(model.plugin_statenum[instance]))
-        start = rig_module.full_state(model, data)
+        start = sim.full_state(model, data)
         state, _ = mj_rollout.rollout(model, data, start[None], nstep=probe_steps)
         moving = np.ptp(state[0][:, own], axis=0) > 0
         coords += [int(i) for i in own[moving]]
@@ -617,9 +617,9 @@ def solve_rig(rig: RigParameters, friction: FrictionParameters, *,
     force at which the orbit counts as converged."""
     vibrating = is_vibrating(rig)
     if timestep_s is None:
-        timestep_s = rig_module.recommended_timestep(rig)
+        timestep_s = rig_model.recommended_timestep(rig)
     if not (timestep_s > 0 and math.isfinite(timestep_s)):
-        raise ParameterError(f"timestep {_plain(timestep_s)!r} must be a positive number of "
+        raise ParameterError(f"timestep {plain_value(timestep_s)!r} must be a positive number of "
                              "seconds")
     if vibrating:
         T = 1.0 / rig.vibration_frequency_Hz
@@ -627,7 +627,7 @@ def solve_rig(rig: RigParameters, friction: FrictionParameters, *,
         N = int(round(ratio)) if abs(ratio - round(ratio)) < 1e-6 else int(math.floor(ratio))
         if N < 8:
             raise ParameterError(
-                f"timestep {_plain(timestep_s)} s leaves {ratio:.3g} steps per vibration period; "
+                f"timestep {plain_value(timestep_s)} s leaves {ratio:.3g} steps per vibration period; "
                 "the periodic solver needs at least 8 (use a smaller timestep)")
         dt1, period1 = T / N, T
     else:
@@ -635,7 +635,7 @@ def solve_rig(rig: RigParameters, friction: FrictionParameters, *,
         dt1 = timestep_s
         period1 = static_period_s(rig, dt1)
         multiples = (1,)
-    model = rig_module.build_model(rig, friction, dt1)
+    model = rig_model.build_model(rig, friction, dt1)
     data = mujoco.MjData(model)
     rig_start(model, data, rig, friction, guess_force_N(rig, friction))
     steps1 = int(round(period1 / dt1))
@@ -697,7 +697,7 @@ def solve_rig(rig: RigParameters, friction: FrictionParameters, *,
     if window:
         # a force that jumps (Coulomb's switch) depends on where each switch falls between two
         # steps: average the orbit over a window of many phases, as the transient does
-        dt_window = rig_module.period_timestep(rig.vibration_frequency_Hz, N)
+        dt_window = rig_model.period_timestep(rig.vibration_frequency_Hz, N)
         model.opt.timestep = dt_window
         nstep = int(math.ceil(window * T / dt_window)) + 1
         state, sensordata = mj_rollout.rollout(model, data, final.state[None], nstep=nstep)
@@ -737,8 +737,8 @@ def _window_summary(model: mujoco.MjModel, rig: RigParameters, sensordata: np.nd
                     t0: float, dt: float, length_s: float) -> RunSummary:
     from .steady import hann_mean
     t = t0 + np.arange(sensordata.shape[0]) * dt
-    drive = rig_module.drive_force_columns(model, rig, sensordata)
-    friction = rig_module.sensor_columns(model, sensordata, "friction_state")[:, 4]
+    drive = rig_model.drive_force_columns(model, rig, sensordata)
+    friction = sim.sensor_columns(model, sensordata, "friction_state")[:, 4]
     inside = (t >= t0) & (t <= t0 + length_s + 1e-12)
     return RunSummary(
         mean_drive_force_N=hann_mean(t, drive, t0, t0 + length_s),
@@ -754,8 +754,8 @@ def _orbit_summary(model: mujoco.MjModel, rig: RigParameters, orbit: PeriodicOrb
                    dt: float) -> tuple[RunSummary, float]:
     """The orbit's summary (means over it, the friction force's extremes) and the estimated
     error of its mean drive force (N)."""
-    drive = rig_module.drive_force_columns(model, rig, orbit.sensordata)
-    friction = rig_module.sensor_columns(model, orbit.sensordata, "friction_state")[:, 4]
+    drive = rig_model.drive_force_columns(model, rig, orbit.sensordata)
+    friction = sim.sensor_columns(model, orbit.sensordata, "friction_state")[:, 4]
     t0 = float(orbit.state[0])
     periods = int(round(orbit.period_s * rig.vibration_frequency_Hz)) if is_vibrating(rig) \
         else 0
@@ -766,7 +766,7 @@ def _orbit_summary(model: mujoco.MjModel, rig: RigParameters, orbit: PeriodicOrb
         window_end_s=t0 + orbit.steps * dt, periods_averaged=periods)
     # the drive force's error: from the sensor means' (the drive actuator's force sensor,
     # and with backlash the dynamometer's extension)
-    s = rig_module.sensor_slices(model)
+    s = sim.sensor_slices(model)
     err = float(orbit.mean_residual[s["drive_force"]][0])
     if rig.drive_backlash_m > 0:
         err += rig.drive_chain_stiffness_N_per_m * float(

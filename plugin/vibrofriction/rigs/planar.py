@@ -24,10 +24,10 @@ import numpy as np
 from mujoco import rollout as mj_rollout
 from scipy import special
 
-from ..laws._native import load
-from ..laws.run import _as_c_array, _c_parameters, _normal_argument, _time_argument
+from ..laws import c_array, c_law_parameters, c_normal_argument, c_time_argument, load
 from ..params import PAPER_NORMAL_FORCE_N, FrictionParameters, ParameterError, RigParameters
-from .rig import MJCF_DIR, default_times, initial_state, sensor_slices, set_plugin_config
+from .rig import default_times
+from ..sim import MJCF_DIR, initial_state, sensor_slices, set_plugin_config
 from ..summary import averaging_window
 from ..vocabulary import FRICTION_TERMS, config_values, element_keys
 
@@ -93,16 +93,16 @@ def run_planar_law(friction: FrictionParameters, time_s, relative_velocity_m_per
     fn.argtypes = [ctypes.c_void_p, ctypes.c_int, dp, dp, dp, dp, ctypes.c_double,
                    ctypes.c_double, dp, dp, dp, dp]
     fn.restype = ctypes.c_int
-    t = _time_argument(time_s)
+    t = c_time_argument(time_s)
     n = t.shape[0]
     v = np.asarray(relative_velocity_m_per_s, dtype=np.float64)
     if v.shape != (n, 2):
         raise ParameterError(f"relative_velocity_m_per_s has shape {v.shape}, expected ({n}, 2)")
-    vx = _as_c_array(v[:, 0], n, "relative_velocity_m_per_s[:, 0]")
-    vy = _as_c_array(v[:, 1], n, "relative_velocity_m_per_s[:, 1]")
-    constant_normal, normal = _normal_argument(normal_force_N, n)
+    vx = c_array(v[:, 0], n, "relative_velocity_m_per_s[:, 0]")
+    vy = c_array(v[:, 1], n, "relative_velocity_m_per_s[:, 1]")
+    constant_normal, normal = c_normal_argument(normal_force_N, n)
     out = [np.empty(n) for _ in range(4)]
-    params = _c_parameters(friction, constant_normal)
+    params = c_law_parameters(friction, constant_normal)
 
     def ptr(a):
         return None if a is None else a.ctypes.data_as(dp)

@@ -29,8 +29,10 @@ import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
-from . import rig as rig_module
-from ..params import FrictionParameters, ParameterError, RigParameters, _plain
+from .. import sim
+from . import rig_model
+from .rig_model import Convergence
+from ..params import FrictionParameters, ParameterError, RigParameters, plain_value
 from ..summary import RunSummary
 
 DEFAULT_TOLERANCE = 1e-3
@@ -48,33 +50,6 @@ Case = tuple[RigParameters, FrictionParameters]
 
 
 @dataclass(frozen=True)
-class Convergence:
-    """How a run's mean drive force settled (all ratios relative to the last window's mean)."""
-
-    converged: bool
-    tolerance: float
-    window_s: float  # length of each averaging window (whole periods)
-    windows: int  # windows after the transient guess, the reported one included
-    relative_change: float  # |m_k - m_{k-1}| / |m_k|
-    estimated_remaining_error: float  # |limit - m_k| / |m_k| (geometric estimate; inf if none)
-    simulated_s: float  # end of the reported window (periodic: every step the solver ran)
-    # how the steady state was found: "transient" (this module: windows of a run from rest)
-    # or "periodic" (rigs.periodic: the orbit by shooting); ``note`` says why a periodic
-    # solve fell back to the transient, or how the orbit converged
-    method: str = "transient"
-    note: str = ""
-
-    def as_dict(self) -> dict:
-        def finite(x: float) -> float | None:
-            return float(x) if math.isfinite(x) else None
-        return {"converged": self.converged, "tolerance": self.tolerance,
-                "window_s": self.window_s, "windows": self.windows,
-                "relative_change": finite(self.relative_change),
-                "estimated_remaining_error": finite(self.estimated_remaining_error),
-                "simulated_s": self.simulated_s, "method": self.method, "note": self.note}
-
-
-@dataclass(frozen=True)
 class SteadyRun:
     """One case run to steady state: its summary (over the reported window), how it
     converged, and with ``keep_series`` its time series up to that window's end."""
@@ -84,7 +59,7 @@ class SteadyRun:
     timestep_s: float
     summary: RunSummary
     convergence: Convergence
-    run: rig_module.RigRun | None = None
+    run: rig_model.RigRun | None = None
 
     @property
     def mean_drive_force_N(self) -> float:
@@ -106,7 +81,7 @@ def longest_run_s(rig: RigParameters, friction: FrictionParameters,
     """The most a case runs: ``max_duration_s`` (default DEFAULT_MAX_DURATION_S), at least the
     transient guess and MIN_WINDOWS windows."""
     limit = DEFAULT_MAX_DURATION_S if max_duration_s is None else max_duration_s
-    return max(limit, rig_module.default_times(rig, friction)[1]
+    return max(limit, rig_model.default_times(rig, friction)[1]
                + MIN_WINDOWS * window_length_s(rig))
 
 
@@ -177,7 +152,7 @@ def check_timestep(rig: RigParameters, timestep_s: float) -> None:
     route: checked before anything is simulated)."""
     if not (timestep_s > 0 and timestep_s <= window_length_s(rig) / HOPS_PER_WINDOW / 10):
         raise ParameterError(
-            f"timestep {_plain(timestep_s)} s is too coarse to average over windows of "
+            f"timestep {plain_value(timestep_s)} s is too coarse to average over windows of "
             f"{window_length_s(rig):.4g} s (at most a tenth of a quarter window); use a "
             "smaller --timestep")
 
@@ -187,10 +162,10 @@ def case_timesteps(cases: Sequence[Case], timesteps: Sequence[float] | None,
     """Each case's timestep (the rule's where none is given), every input checked before
     anything is simulated (either route)."""
     if not (tolerance > 0 and math.isfinite(tolerance)):
-        raise ParameterError(f"tolerance {_plain(tolerance)!r} must be a positive number "
+        raise ParameterError(f"tolerance {plain_value(tolerance)!r} must be a positive number "
                              "(a relative error, e.g. 1e-3)")
     dts = (list(timesteps) if timesteps is not None
-           else [rig_module.recommended_timestep(r) for r, _ in cases])
+           else [rig_model.recommended_timestep(r) for r, _ in cases])
     if len(dts) != len(cases):
         raise ValueError(f"{len(dts)} timesteps for {len(cases)} cases")
     for (r, _), dt in zip(cases, dts):
@@ -208,17 +183,17 @@ def run_until_steady(cases: Sequence[Case], *, timesteps: Sequence[float] | None
     guess and three windows). Cases run together on rollout threads."""
     dts = case_timesteps(cases, timesteps, tolerance)
     if max_duration_s is not None and not (max_duration_s > 0 and math.isfinite(max_duration_s)):
-        raise ParameterError(f"maximum duration {_plain(max_duration_s)!r} must be a positive "
+        raise ParameterError(f"maximum duration {plain_value(max_duration_s)!r} must be a positive "
                              "number of seconds")
     todo: list[_Case] = []
     for i, ((r, f), dt) in enumerate(zip(cases, dts)):
-        model = rig_module.build_model(r, f, dt)
-        settle = rig_module.default_times(r, f)[1]
+        model = rig_model.build_model(r, f, dt)
+        settle = rig_model.default_times(r, f)[1]
         window = window_length_s(r)
         limit = longest_run_s(r, f, max_duration_s)
         todo.append(_Case(index=i, model=model, rig=r, friction=f, timestep_s=dt,
                           first_window_s=settle, window_s=window, max_duration_s=limit,
-                          state=rig_module.initial_state(model), forces=np.empty((0, 2))))
+                          state=sim.initial_state(model), forces=np.empty((0, 2))))
     results: list[SteadyRun | None] = [None] * len(cases)
     # Rollout runs models of one structure for one number of steps together: group by state
     # and sensor sizes and by timestep (a common step count would run a coarse case for as
@@ -227,7 +202,7 @@ def run_until_steady(cases: Sequence[Case], *, timesteps: Sequence[float] | None
     for c in todo:
         groups.setdefault((c.state.size, c.model.nsensordata, c.timestep_s), []).append(c)
     finished = 0
-    threads = nthread if nthread is not None else rig_module._cpu_count()
+    threads = nthread if nthread is not None else sim.cpu_count()
     for group in groups.values():
         # One thread: step in the calling thread (no pool), as a single case does.
         pool_threads = min(threads, len(group)) if len(group) > 1 and threads > 1 else 0
@@ -279,7 +254,7 @@ def _check_finite(c: _Case, last_state: np.ndarray, sensordata: np.ndarray, nste
         return
     raise ParameterError(
         f"the run of law {c.friction.law} at vibration_velocity_amplitude_m_per_s="
-        f"{_plain(c.rig.vibration_velocity_amplitude_m_per_s)} diverged within "
+        f"{plain_value(c.rig.vibration_velocity_amplitude_m_per_s)} diverged within "
         f"{expected_time:.4g} s at timestep {c.timestep_s:.4g} s (MuJoCo warned and reset it, or "
         "a value is not finite); use a smaller --timestep or check the parameters")
 
@@ -287,8 +262,8 @@ def _check_finite(c: _Case, last_state: np.ndarray, sensordata: np.ndarray, nste
 def _force_columns(model: mujoco.MjModel, rig: RigParameters,
                    sensordata: np.ndarray) -> np.ndarray:
     """(drive force, friction force) of each step: all a summary needs."""
-    s = rig_module.sensor_slices(model)
-    return np.column_stack((rig_module.drive_force_columns(model, rig, sensordata),
+    s = sim.sensor_slices(model)
+    return np.column_stack((rig_model.drive_force_columns(model, rig, sensordata),
                             sensordata[:, s["friction_state"]][:, 4]))
 
 
@@ -341,12 +316,12 @@ def _with_series(result: SteadyRun, c: _Case) -> SteadyRun:
     """The result with the run's time series up to the reported window's end."""
     data = np.concatenate(c.series)
     keep = np.arange(data.shape[0]) * c.timestep_s <= result.summary.window_end_s + 1e-12
-    run = rig_module.runs_from_sensordata(c.model, c.rig, c.friction, data[keep],
+    run = rig_model.runs_from_sensordata(c.model, c.rig, c.friction, data[keep],
                                           result.summary.window_start_s)
     return replace(result, run=run)
 
 
-def convergence_of_run(run: rig_module.RigRun, settle_time_s: float,
+def convergence_of_run(run: rig_model.RigRun, settle_time_s: float,
                        tolerance: float = DEFAULT_TOLERANCE) -> Convergence:
     """The same judgement for a run of fixed length: the last MIN_WINDOWS windows that fit
     between ``settle_time_s`` and the run's end (not converged when fewer fit)."""

@@ -34,7 +34,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from ..laws._native import load
+from ..laws import load
 from .averaged import AveragedTable, Vibration, build_table
 from .feeder_map import FeederMap, build_map
 from ..oracle.feeder_reference import Feeder

@@ -28,12 +28,12 @@ import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
-from ..laws._native import load
+from ..laws import load
 from .averaged import AveragedTable, Vibration, build_table
 from .feeder_map import FeederMap, build_map
 from ..oracle.feeder_reference import Feeder
 from ..params import FrictionParameters, ParameterError
-from ..rigs.rig import MJCF_DIR, full_state, sensor_columns
+from ..sim import MJCF_DIR, full_state, sensor_columns
 
 ROBOTS_DIR = MJCF_DIR / "robots"
 GRAVITY_M_PER_S2 = 9.81

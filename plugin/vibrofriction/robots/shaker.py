@@ -28,7 +28,7 @@ import mujoco
 import numpy as np
 
 from ..errors import InputError
-from ..laws._native import load
+from ..laws import load
 from ..params import ParameterError
 
 MOTION_PLUGIN = "vibrofriction.motion"

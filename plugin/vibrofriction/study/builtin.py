@@ -34,6 +34,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
+from .. import sim
 from ..rigs import rig as rig_module
 from ..params import FrictionParameters, ParameterError, RigParameters
 from ..summary import RunSummary, summarize
@@ -207,7 +208,7 @@ class VariantRun:
 
 def _friction_series(model: mujoco.MjModel, sensordata: np.ndarray, rig: RigParameters,
                      builtin: bool) -> tuple[np.ndarray, np.ndarray]:
-    slices = rig_module.sensor_slices(model)
+    slices = sim.sensor_slices(model)
     drive = rig_module.drive_force_columns(model, rig, sensordata)
     if builtin:
         accel = sensordata[:, slices["slider_acceleration"]][:, 0]
@@ -230,7 +231,7 @@ def run_variants(requests: Sequence[tuple[str, RigParameters, float]], config: S
     for i, (v, _, dt) in enumerate(requests):
         groups.setdefault((v, dt) if parallel else (v, dt, i), []).append(i)
     done = 0
-    nthread = rig_module._cpu_count()
+    nthread = sim.cpu_count()
     for key, idx in groups.items():
         v, dt = key[0], key[1]
         builtin = VARIANTS[v].builtin
@@ -239,7 +240,7 @@ def run_variants(requests: Sequence[tuple[str, RigParameters, float]], config: S
             models = [build_variant_spec(v, requests[i][1], config, dt).compile() for i in part]
             nstep = int(round(duration / dt))
             data = mujoco.MjData(models[0])
-            states = np.stack([rig_module.initial_state(m, data) for m in models])
+            states = np.stack([sim.initial_state(m, data) for m in models])
             threads = min(nthread, len(models)) if parallel and len(models) > 1 else 0
             with mj_rollout.Rollout(nthread=threads) as pool:
                 datas = [mujoco.MjData(models[0]) for _ in range(max(1, threads))]
@@ -719,7 +720,7 @@ def _builtin_point(variant: str, run, config: StudyConfig, timestep_s: float
     from ..rigs.steady import hann_mean
     model = build_variant_spec(variant, run.rig, config, timestep_s).compile()
     data = mujoco.MjData(model)
-    state = rig_module.initial_state(model, data)
+    state = sim.initial_state(model, data)
     nstep = int(math.ceil(run.summary.window_end_s / timestep_s)) + 2
     start = time.process_time()
     _, sensordata = mj_rollout.rollout(model, data, state[None], nstep=nstep)

@@ -650,19 +650,19 @@ def summary_markdown(results: StudyResults, claims: Sequence[Claim]) -> str:
 def write_summary(results: StudyResults, out: Path) -> list[Claim]:
     claims = all_claims(results)
     out = Path(out)
-    text = json.dumps(stamped(_clean(summary_json(results, claims))), indent=2,
+    text = json.dumps(stamped(json_ready(summary_json(results, claims))), indent=2,
                       allow_nan=False)
     (out / "claims.json").write_text(text + "\n")
     (out / "summary.md").write_text(summary_markdown(results, claims))
     return claims
 
 
-def _clean(value: Any) -> Any:
+def json_ready(value: Any) -> Any:
     """JSON-ready: numpy scalars to Python, NaN/inf to None, tuple keys/values to lists."""
     if isinstance(value, dict):
-        return {str(k): _clean(v) for k, v in value.items()}
+        return {str(k): json_ready(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_clean(v) for v in value]
+        return [json_ready(v) for v in value]
     if hasattr(value, "item") and not isinstance(value, (str, bytes)):
         value = value.item()
     if isinstance(value, float) and not math.isfinite(value):
