@@ -257,6 +257,10 @@ ELEMENT_KEYS: tuple[ElementKey, ...] = (
 )
 # every key of every plugin: the friction terms', then the plugins' own
 ALL_KEYS: tuple = FRICTION_TERMS + ELEMENT_KEYS
+# each key's default (a number, a bool, an empty tuple for a list, None for a name or text)
+KEY_DEFAULTS = {row.mjcf_key: row.default for row in ALL_KEYS}
+# the keys that say where an element's normal load comes from (config, sensor, contacts)
+NORMAL_LOAD_KEYS = tuple(k.mjcf_key for k in ELEMENT_KEYS if k.elements == NORMAL_LOAD_ELEMENTS)
 
 
 def plugin_keys(plugin: str) -> tuple[str, ...]:
@@ -281,4 +285,4 @@ __all__ = ["Term", "FRICTION_TERMS", "TERMS_BY_NAME", "DEFAULTS", "MJCF_KEYS", "
            "RESOLVING_ELEMENTS",
            "LINE_ELEMENT_ONLY", "PAPER_CONTACT_STIFFNESS_N_PER_M", "element_keys", "config_values",
            "ElementKey", "ELEMENT_KEYS", "ALL_KEYS", "OTHER_PLUGINS", "ALL_PLUGINS",
-           "NORMAL_LOAD_ELEMENTS", "CONTACT_ELEMENTS", "AVERAGED_ELEMENTS", "plugin_keys"]
+           "NORMAL_LOAD_ELEMENTS", "NORMAL_LOAD_KEYS", "KEY_DEFAULTS", "CONTACT_ELEMENTS", "AVERAGED_ELEMENTS", "plugin_keys"]

@@ -17,6 +17,7 @@ import mujoco
 import numpy as np
 
 from ..params import ParameterError
+from ..vocabulary import KEY_DEFAULTS, plugin_keys
 
 AVERAGED = "vibrofriction.contact_averaged"
 FEEDER = "vibrofriction.contact_feeder"
@@ -88,18 +89,12 @@ def _number(config: dict, key: str, default: float, name: str) -> float:
 
 
 def _element(name: str, plugin: str, config: dict, body: str) -> Element:
-    parameters = {
-        "mu": _number(config, "mu", 0.2 if plugin == AVERAGED else 0.0, name),
-        "viscous": _number(config, "viscous", 0.0, name) if plugin == AVERAGED else 0.0,
-        "static_ratio": _number(config, "static_ratio", 1.0, name) if plugin == AVERAGED else 1.0,
-        "stribeck_velocity": (_number(config, "stribeck_velocity", 1e-3, name)
-                              if plugin == AVERAGED else 1e-3),
-        "velocity_amplitude": (_number(config, "velocity_amplitude", 0.0, name)
-                               if plugin == AVERAGED else 0.0),
-        "torsion_radius": _number(config, "torsion_radius", 0.0, name),
-        # contact_feeder: a bowl feeder's helical track (the rise per turn; 0: along axis)
-        "helix_pitch": _number(config, "helix_pitch", 0.0, name) if plugin == FEEDER else 0.0,
-    }
+    # the table's default of each key the plugin takes; a key it does not take keeps that
+    # (neutral) default. The feeder's mu has none: the element refuses a config without it.
+    takes = plugin_keys(plugin[len("vibrofriction."):])
+    parameters = {key: _number(config, key, 0.0 if (key, plugin) == ("mu", FEEDER)
+                               else KEY_DEFAULTS[key], name) if key in takes
+                  else KEY_DEFAULTS[key] for key in PARAMETERS}
     axis = _numbers(config["axis"], "axis", name) if config.get("axis", "").strip() \
         else np.array([1.0, 0.0, 0.0])
     element = Element(name=name, plugin=plugin, body=body, support=config.get("support", ""),

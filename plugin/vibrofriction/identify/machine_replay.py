@@ -43,7 +43,7 @@ from .model import modulation_not_applicable
 from .start import start_velocity, starts_in_motion
 from .replay import (SampleGrid, contact_at_rest, contact_sliding, grid_steps, noise_sd,
                      speed_quantiles, substeps_of_record, uniform_times)
-from ..vocabulary import FRICTION_TERMS
+from ..vocabulary import FRICTION_TERMS, MJCF_KEYS, NORMAL_LOAD_KEYS
 
 # The friction keys a fitted law must not inherit from the scene: the lists (maps, gms
 # elements) and the values that only shape them.
@@ -321,11 +321,10 @@ class MachineReplay(SampleGrid):
         # elements), which an empty list leaves unwritten, must not survive from the scene.
         own = {k: v for k, v in scene.friction_config.items() if k not in _LAW_LIST_KEYS}
         config = {**own, **rig_module.friction_config(rig, friction)}
-        config["modulation_frequency"] = repr(float(
+        config[MJCF_KEYS["normal_force_modulation_frequency_Hz"]] = repr(float(
             friction.normal_force_modulation_frequency_Hz))
         if scene.normal_load_given:  # the scene's normal load, as the scene sets it
-            for key in ("normal", "normal_sensor", "normal_gain", "normal_component",
-                        "contact_geom1", "contact_geom2"):
+            for key in NORMAL_LOAD_KEYS:
                 if key in scene.friction_config:
                     config[key] = scene.friction_config[key]
                 else:

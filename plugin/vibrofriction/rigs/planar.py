@@ -29,7 +29,7 @@ from ..params import PAPER_NORMAL_FORCE_N, FrictionParameters, ParameterError, R
 from .rig import default_times
 from ..sim import MJCF_DIR, initial_state, sensor_slices, set_plugin_config
 from ..summary import averaging_window
-from ..vocabulary import FRICTION_TERMS, config_values, element_keys
+from ..vocabulary import FRICTION_TERMS, MJCF_KEYS, config_values, element_keys
 
 PLANAR_RIG_PATH = MJCF_DIR / "robots" / "planar_rig_resolved.xml"
 AVERAGED_RIG_PATH = MJCF_DIR / "robots" / "planar_rig_averaged.xml"
@@ -223,7 +223,7 @@ def build_rig_spec(rig: RigParameters, friction: FrictionParameters, *,
     set_plugin_config(spec, "drive_end_y", {"velocity": repr(float(vd * sd if abs(sd) > 1e-15 else 0.0))})
     config = planar_config(friction, normal_force_N=rig.normal_force_N)
     if friction.normal_force_modulation_frequency_Hz == 0:
-        config["modulation_frequency"] = repr(float(f))
+        config[MJCF_KEYS["normal_force_modulation_frequency_Hz"]] = repr(float(f))
     set_plugin_config(spec, "friction", dict(averaged_config) if averaged_config else config)
     if friction.law == "gms" and not averaged_config:  # one deflection per element and axis
         for axis in ("x", "y"):

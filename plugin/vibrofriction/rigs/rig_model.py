@@ -46,7 +46,8 @@ def friction_config(rig: RigParameters, friction: FrictionParameters) -> dict[st
               **config_values(friction, MJCF_KEYS)}
     if friction.normal_force_modulation_frequency_Hz == 0:
         # Normal-load modulation defaults to the support's vibration frequency.
-        config["modulation_frequency"] = repr(float(rig.vibration_frequency_Hz))
+        config[MJCF_KEYS["normal_force_modulation_frequency_Hz"]] = repr(float(
+            rig.vibration_frequency_Hz))
     return config
 
 

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import sim
 from ..params import FrictionParameters, ParameterError
 from ..rigs.planar import check_planar, run_planar_law
 from ..vocabulary import element_keys
@@ -132,12 +133,9 @@ class AveragedTable:
         return config
 
     def mjcf_instance(self, name: str, **kwargs) -> str:
-        """<instance> element text for an MJCF <extension><plugin plugin="vibrofriction.averaged">."""
-        lines = [f'<instance name="{name}">']
-        for key, value in self.config(**kwargs).items():
-            lines.append(f'  <config key="{key}" value="{value}"/>')
-        lines.append("</instance>")
-        return "\n".join(lines)
+        """<instance> element text for an MJCF <extension><plugin plugin="vibrofriction.averaged">
+        (its keys checked against the table: sim.instance_xml)."""
+        return sim.instance_xml("averaged", name, self.config(**kwargs))
 
     def to_json(self, path: str | Path) -> None:
         payload = {"friction": asdict(self.friction), "vibration": asdict(self.vibration),

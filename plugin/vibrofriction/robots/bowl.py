@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import sim
 from ..oracle.feeder_reference import Feeder, convey
 from .feeder_map import DEFAULT_PUSH_RATIOS, FeederMap, build_map
 
@@ -133,8 +134,9 @@ def bowl_scene_xml(bowl: Bowl, feeder_map: FeederMap, *, parts_at_rad=(0.3,),
         config = feeder_map.contact_config("bowl", torsion_radius_m=0.765 * PART_HALF_M)
         config.pop("axis")
         config["helix_pitch"] = repr(float(bowl.pitch_m))
-        keys = "".join(f'<config key="{k}" value="{v}"/>' for k, v in config.items())
-        instances.append(f'<instance name="part{i}_friction">{keys}</instance>')
+        # (text, not MjSpec: the scene is written to a file with its comments; the keys are
+        # checked against the table all the same)
+        instances.append(sim.instance_xml("contact_feeder", f"part{i}_friction", config))
         x, y, z = bowl.frame(phi)
         centre = bowl.point(phi) + z * (PART_HALF_M + 1e-5) + np.asarray(offsets[i], float)
         pos = " ".join(f"{v:.12g}" for v in centre)

@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ..oracle.feeder_reference import Feeder, convey
+from .. import sim
 from ..params import ParameterError
 
 # Pushes over mu g: dense where the map bends near the ends (one-way sliding sets in) and
@@ -104,12 +105,9 @@ class FeederMap:
         return config
 
     def mjcf_instance(self, name: str, support: str, **kwargs) -> str:
-        """<instance> element text for <extension><plugin plugin="vibrofriction.contact_feeder">."""
-        lines = [f'<instance name="{name}">']
-        for key, value in self.contact_config(support, **kwargs).items():
-            lines.append(f'  <config key="{key}" value="{value}"/>')
-        lines.append("</instance>")
-        return "\n".join(lines)
+        """<instance> element text for <extension><plugin plugin="vibrofriction.contact_feeder">
+        (its keys checked against the table: sim.instance_xml)."""
+        return sim.instance_xml("contact_feeder", name, self.contact_config(support, **kwargs))
 
     def to_json(self, path: str | Path) -> None:
         payload = {"feeder": asdict(self.feeder), "push_ratio": self.push_ratio.tolist(),

@@ -34,6 +34,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from .. import sim
 from ..laws import load
 from .averaged import AveragedTable, Vibration, build_table
 from .feeder_map import FeederMap, build_map
@@ -97,59 +98,55 @@ def plate_creep_velocity_m_per_s() -> float:
     return CELL_PLATE_VIBRATION.velocity_amplitude_m_per_s * math.sin(math.pi / 2 * ratio)
 
 
-def _config(name: str, config: dict[str, str]) -> str:
-    body = "".join(f'<config key="{k}" value="{v}"/>' for k, v in config.items())
-    return f'<instance name="{name}">{body}</instance>'
-
-
-def _world_xml(mode: str, vibration: bool) -> str:
+def _add_elements(spec: mujoco.MjSpec, mode: str, vibration: bool) -> None:
+    """The cell's friction elements and shakers, through MjSpec and the table (sim): the
+    feeder's parts, the plate's part, then (resolved) the vibrating supports' motions and their
+    actuators, in that order."""
     f = CELL_FEEDER
-    h = CELL_PART_HALF_M
     coulomb = {"law": "coulomb", "mu": repr(f.friction_coefficient)}
-    feeder_parts = [f"feeder_part{k}" for k in range(len(FEEDER_PART_START_X))]
-    extension, actuators = [], []
     radius = {"torsion_radius": repr(CELL_PART_TORSION_RADIUS_M)}
-    # the feeder's parts
-    if mode == "robot" and vibration:
-        instances = "".join(_config(f"{p}_friction", cell_feeder_map().contact_config(
-            "track", axis=(1.0, 0.0, 0.0), torsion_radius_m=CELL_PART_TORSION_RADIUS_M))
-            for p in feeder_parts)
-        extension.append(f'<plugin plugin="vibrofriction.contact_feeder">{instances}</plugin>')
-    else:
-        instances = "".join(_config(f"{p}_friction", {**coulomb, "support": "track", **radius})
-                            for p in feeder_parts)
-        extension.append(f'<plugin plugin="vibrofriction.contact">{instances}</plugin>')
-    # the plate's part
+    feeder_parts = [f"feeder_part{k}" for k in range(len(FEEDER_PART_START_X))]
+    for part in feeder_parts:
+        if mode == "robot" and vibration:
+            sim.add_plugin_instance(spec, "contact_feeder", f"{part}_friction",
+                                    cell_feeder_map().contact_config(
+                                        "track", axis=(1.0, 0.0, 0.0),
+                                        torsion_radius_m=CELL_PART_TORSION_RADIUS_M), body=part)
+        else:
+            sim.add_plugin_instance(spec, "contact", f"{part}_friction",
+                                    {**coulomb, "support": "track", **radius}, body=part)
     if mode == "robot":
         config = cell_plate_table().contact_config("plate", axis=(1.0, 0.0, 0.0),
                                                    torsion_radius_m=CELL_PART_TORSION_RADIUS_M)
         if not vibration:
             config["velocity_amplitude"] = "0"  # the law without vibration: rigid Coulomb
-        extension.append('<plugin plugin="vibrofriction.contact_averaged">'
-                         f'{_config("plate_part_friction", config)}</plugin>')
+        sim.add_plugin_instance(spec, "contact_averaged", "plate_part_friction", config,
+                                body="plate_part")
     else:
-        extension.append('<plugin plugin="vibrofriction.contact">' + _config(
-            "plate_part_friction", {**coulomb, "support": "plate", **radius}) + "</plugin>")
+        sim.add_plugin_instance(spec, "contact", "plate_part_friction",
+                                {**coulomb, "support": "plate", **radius}, body="plate_part")
+    if mode != "resolved":
+        return
+    v_a = f.amplitude_m * f.omega
+    vib = CELL_PLATE_VIBRATION
+    for name, frequency, amplitude in (
+            ("track_x", f.frequency_Hz, v_a * math.cos(f.throw_angle_rad)),
+            ("track_z", f.frequency_Hz, v_a * math.sin(f.throw_angle_rad)),
+            ("plate_shaker", vib.frequency_Hz, vib.velocity_amplitude_m_per_s)):
+        sim.add_plugin_instance(spec, "motion", name, {
+            "frequency": repr(frequency), "velocity_amplitude": repr(amplitude),
+            "use_ctrl": "true"})
+    for name, joint in (("track_x", "track_x"), ("track_z", "track_z"),
+                        ("plate_shaker", "plate_slope")):
+        sim.add_plugin_actuator(spec, name, joint, ctrlrange=(0.0, 1.0))
+
+
+def _world_xml(mode: str, vibration: bool) -> str:
+    """The cell's bodies, geoms and sensors (its friction elements and shakers:
+    ``_add_elements``)."""
+    h = CELL_PART_HALF_M
+    feeder_parts = [f"feeder_part{k}" for k in range(len(FEEDER_PART_START_X))]
     shaking = mode == "resolved"
-    if shaking:
-        v_a = f.amplitude_m * f.omega
-        for axis, value in (("x", v_a * math.cos(f.throw_angle_rad)),
-                            ("z", v_a * math.sin(f.throw_angle_rad))):
-            extension.append(
-                f'<plugin plugin="vibrofriction.motion"><instance name="track_{axis}">'
-                f'<config key="frequency" value="{f.frequency_Hz!r}"/>'
-                f'<config key="velocity_amplitude" value="{value!r}"/>'
-                '<config key="use_ctrl" value="true"/></instance></plugin>')
-            actuators.append(f'<plugin name="track_{axis}" joint="track_{axis}" '
-                             f'instance="track_{axis}" ctrlrange="0 1"/>')
-        vib = CELL_PLATE_VIBRATION
-        extension.append(
-            '<plugin plugin="vibrofriction.motion"><instance name="plate_shaker">'
-            f'<config key="frequency" value="{vib.frequency_Hz!r}"/>'
-            f'<config key="velocity_amplitude" value="{vib.velocity_amplitude_m_per_s!r}"/>'
-            '<config key="use_ctrl" value="true"/></instance></plugin>')
-        actuators.append('<plugin name="plate_shaker" joint="plate_slope" '
-                         'instance="plate_shaker" ctrlrange="0 1"/>')
     track_joints = ('<joint name="track_x" type="slide" axis="1 0 0" armature="1e5"/>'
                     '<joint name="track_z" type="slide" axis="0 0 1" armature="1e5"/>'
                     if shaking else "")
@@ -162,14 +159,13 @@ def _world_xml(mode: str, vibration: bool) -> str:
     tray = TRAY_CENTRE
     parts = "".join(
         f'<body name="{p}" pos="{x!r} {tc[1]!r} {tc[2] + th[2] + h - 1e-4!r}"><freejoint/>'
-        f'<geom name="{p}" class="part"/><plugin instance="{p}_friction"/></body>'
+        f'<geom name="{p}" class="part"/></body>'
         for p, x in zip(feeder_parts, FEEDER_PART_START_X))
     sensors = "".join(f'<framepos name="{p}_position" objtype="body" objname="{p}"/>'
                       for p in (*feeder_parts, "plate_part"))
     return f"""<mujoco model="vibrofriction arm cell ({mode}, vibration {'on' if vibration else 'off'})">
   <compiler angle="radian"/>
   <option timestep="{TIMESTEP_S[mode]!r}" integrator="implicitfast"/>
-  <extension>{''.join(extension)}</extension>
   <default>
     <default class="part"><geom type="box" size="{h!r} {h!r} {h!r}" mass="{CELL_PART_MASS_KG!r}"
       condim="1" rgba="0.2 0.5 0.85 1"/></default>
@@ -197,14 +193,12 @@ def _world_xml(mode: str, vibration: bool) -> str:
     <geom name="pedestal" class="fixture" pos="{pt[0]!r} {pt[1]!r} {pt[2] / 2!r}"
       size="0.012 0.012 {pt[2] / 2!r}"/>
     <body name="plate_part" pos="{pt[0]!r} {pt[1]!r} {pt[2] + h - 1e-4!r}"><freejoint/>
-      <geom name="plate_part" class="part" rgba="0.85 0.45 0.2 1"/>
-      <plugin instance="plate_part_friction"/></body>
+      <geom name="plate_part" class="part" rgba="0.85 0.45 0.2 1"/></body>
     {parts}
     <geom name="tray" class="fixture" pos="{tray[0]!r} {tray[1]!r} {tray[2]!r}"
       size="0.08 0.08 {tray[2]!r}"/>
     <frame name="mount"/>
   </worldbody>
-  <actuator>{''.join(actuators)}</actuator>
   <sensor>{sensors}</sensor>
 </mujoco>"""
 
@@ -227,6 +221,7 @@ def build_model(mode: str = "robot", vibration: bool = True) -> mujoco.MjModel:
     hand = mujoco.MjSpec.from_file(str(kinova / "jaco_hand.xml"))
     arm.site("wristsite").attach_body(hand.body("hand"), "hand/", "")
     world = mujoco.MjSpec.from_string(_world_xml(mode, vibration))
+    _add_elements(world, mode, vibration)
     world.frame("mount").attach_body(arm.body("b_base"), "jaco/", "")
     for body in world.bodies:
         if body.name.startswith("jaco/"):

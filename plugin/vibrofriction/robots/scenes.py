@@ -33,6 +33,7 @@ from .averaged import AveragedTable, Vibration, build_table
 from .feeder_map import FeederMap, build_map
 from ..oracle.feeder_reference import Feeder
 from ..params import FrictionParameters, ParameterError
+from .. import sim
 from ..sim import MJCF_DIR, full_state, sensor_columns
 
 ROBOTS_DIR = MJCF_DIR / "robots"
@@ -125,60 +126,50 @@ def feeder_plate_scene(parts: int, *, mode: str = "map", timestep_s: float | Non
     columns = math.ceil(math.sqrt(parts))
     rows = math.ceil(parts / columns)
     names = [f"part{k}" for k in range(parts)]
-    instances, bodies = [], []
+    bodies = []
     for k, name in enumerate(names):
         x = -0.03 * (columns - 1) / 2 + 0.03 * (k % columns)
         y = -0.03 * (rows - 1) / 2 + 0.03 * (k // columns)
         # resting on the plate (its top at z = 5 mm), 0.1 mm into it
         bodies.append(f'    <body name="{name}" pos="{x:.4f} {y:.4f} 0.0099">\n'
                       f'      <freejoint/>\n      <geom name="{name}" class="part"/>\n'
-                      f'      <plugin instance="{name}_friction"/>\n    </body>')
-        if mode == "map":
-            instances.append(the_map.mjcf_instance(
-                f"{name}_friction", "plate", torsion_radius_m=FEEDER_PART_TORSION_RADIUS_M))
-        else:
-            instances.append(
-                f'<instance name="{name}_friction">\n  <config key="law" value="coulomb"/>\n'
-                f'  <config key="mu" value="{f.friction_coefficient!r}"/>\n'
-                f'  <config key="support" value="plate"/>\n'
-                f'  <config key="torsion_radius" value="{FEEDER_PART_TORSION_RADIUS_M!r}"/>\n'
-                '</instance>')
-    element = "contact_feeder" if mode == "map" else "contact"
+                      '    </body>')
     half_x = max(0.1, 0.015 * columns + 0.05)
     half_y = max(0.05, 0.015 * rows + 0.02)
     if mode == "map":
         plate = (f'    <body name="plate">\n      <geom name="plate" type="box" '
                  f'size="{half_x:.3f} {half_y:.3f} 0.005" condim="1"/>\n    </body>')
-        shakers = actuators = ""
     else:
-        v_a = f.amplitude_m * f.omega
         plate = (f'    <body name="plate">\n'
                  '      <joint name="plate_x" type="slide" axis="1 0 0" armature="1e5"/>\n'
                  '      <joint name="plate_z" type="slide" axis="0 0 1" armature="1e5"/>\n'
                  f'      <geom name="plate" type="box" size="{half_x:.3f} {half_y:.3f} 0.005" '
                  'condim="1" mass="3"/>\n    </body>')
-        shakers = "".join(
-            f'    <plugin plugin="vibrofriction.motion">\n      <instance name="shaker_{axis}">\n'
-            f'        <config key="frequency" value="{f.frequency_Hz!r}"/>\n'
-            f'        <config key="velocity_amplitude" value="{v_a * component!r}"/>\n'
-            '      </instance>\n    </plugin>\n'
-            for axis, component in (("x", math.cos(f.throw_angle_rad)),
-                                    ("z", math.sin(f.throw_angle_rad))))
-        actuators = ('  <actuator>\n'
-                     '    <plugin name="shaker_x" joint="plate_x" instance="shaker_x"/>\n'
-                     '    <plugin name="shaker_z" joint="plate_z" instance="shaker_z"/>\n'
-                     '  </actuator>\n')
-    indented = "\n".join("      " + line for text in instances for line in text.splitlines())
-    return (
+    spec = mujoco.MjSpec.from_string(
         f'<mujoco model="vibrofriction flexible feeder, {parts} parts, {mode}">\n'
         f'  <option timestep="{timestep!r}" integrator="implicitfast"/>\n'
-        f'  <extension>\n    <plugin plugin="vibrofriction.{element}">\n{indented}\n'
-        f'    </plugin>\n{shakers}  </extension>\n'
         '  <default>\n    <default class="part">\n'
         f'      <geom type="box" size="0.01 0.01 0.005" mass="{FEEDER_PART_MASS_KG!r}" '
         'condim="1" solref="0.001 1"/>\n    </default>\n  </default>\n'
-        f'  <worldbody>\n{plate}\n' + "\n".join(bodies) + '\n  </worldbody>\n'
-        f'{actuators}</mujoco>\n')
+        f'  <worldbody>\n{plate}\n' + "\n".join(bodies) + '\n  </worldbody>\n</mujoco>\n')
+    # the elements and shakers through MjSpec and the table (sim)
+    for name in names:
+        if mode == "map":
+            config = the_map.contact_config("plate", torsion_radius_m=FEEDER_PART_TORSION_RADIUS_M)
+            sim.add_plugin_instance(spec, "contact_feeder", f"{name}_friction", config, body=name)
+        else:
+            sim.add_plugin_instance(spec, "contact", f"{name}_friction", {
+                "law": "coulomb", "mu": f.friction_coefficient, "support": "plate",
+                "torsion_radius": FEEDER_PART_TORSION_RADIUS_M}, body=name)
+    if mode == "resolved":
+        v_a = f.amplitude_m * f.omega
+        for axis, component in (("x", math.cos(f.throw_angle_rad)),
+                                ("z", math.sin(f.throw_angle_rad))):
+            sim.add_plugin_instance(spec, "motion", f"shaker_{axis}", {
+                "frequency": f.frequency_Hz, "velocity_amplitude": v_a * component})
+        for axis in ("x", "z"):
+            sim.add_plugin_actuator(spec, f"shaker_{axis}", f"plate_{axis}")
+    return spec.to_xml()
 
 
 def table_files() -> dict[str, str]:
