@@ -76,6 +76,127 @@ _PROBE_POSITION, _PROBE_VELOCITY, _PROBE_FRICTION = (
     "vibrofriction_position", "vibrofriction_velocity", "vibrofriction_friction")
 
 
+def _loaded_scene(path: Path, where: str) -> tuple[mujoco.MjSpec, mujoco.MjModel]:
+    """The user's scene, parsed and compiled (InputError with MuJoCo's message otherwise)."""
+    if not Path(path).is_file():
+        raise InputError(f"model {where} does not exist; name a bundled model "
+                         f"({', '.join(sorted(BUNDLED))}) or an MJCF file")
+    load()
+    try:
+        spec = mujoco.MjSpec.from_file(str(path))
+        model = spec.compile()
+    except Exception as exc:  # MuJoCo's parse and compile errors
+        raise InputError(f"model {where} does not load: {exc}") from None
+    return spec, model
+
+
+def _mapping_texts(spec: mujoco.MjSpec, where: str) -> dict[str, str]:
+    """The scene's ``vibrofriction:`` custom texts (key without the prefix -> data): known
+    keys only, the joint and the body given."""
+    texts = {t.name[len(TEXT_PREFIX):]: t.data.strip() for t in spec.texts
+             if t.name.startswith(TEXT_PREFIX)}
+    for key in texts:
+        if key not in ("joint", "body", "damping", "description") and \
+                key.partition(":")[0] not in ("input", "output"):
+            raise InputError(f"model {where}: {TEXT_PREFIX}{key} is not a key of the mapping "
+                             "(joint, body, damping, description, input:COLUMN, "
+                             "output:COLUMN)")
+    for key in ("joint", "body"):
+        if key not in texts:
+            raise InputError(
+                f"model {where}: say which {key} the record's motion is, e.g. <custom><text "
+                f"name=\"{TEXT_PREFIX}{key}\" data=\"NAME\"/></custom>")
+    return texts
+
+
+def _named(model: mujoco.MjModel, where: str, kind: str, obj: mujoco.mjtObj, value: str) -> str:
+    """``value``, which a mapping text names, checked to be an object of that kind."""
+    if mujoco.mj_name2id(model, obj, value) < 0:
+        raise InputError(f"model {where}: {TEXT_PREFIX}{kind} names {value!r}, which "
+                         f"is no {obj.name[6:].lower()} of the model")
+    return value
+
+
+def _mapped_columns(model: mujoco.MjModel, where: str, texts: Mapping[str, str]
+                    ) -> tuple[dict[str, str], dict[str, tuple[str, ...]]]:
+    """(record input column -> actuator, record output column -> the sensors whose sum it
+    is) from the ``input:COLUMN`` and ``output:COLUMN`` texts."""
+    inputs, outputs = {}, {}
+    for key, value in texts.items():
+        kind, _, column = key.partition(":")
+        if kind == "input":
+            if column not in INPUT_COLUMNS:
+                raise InputError(f"model {where}: {TEXT_PREFIX}{key}: {column!r} is not an "
+                                 f"input column; use one of {', '.join(INPUT_COLUMNS)}")
+            inputs[column] = _named(model, where, key, mujoco.mjtObj.mjOBJ_ACTUATOR, value)
+        elif kind == "output":
+            if column not in OUTPUT_CHANNELS:
+                raise InputError(f"model {where}: {TEXT_PREFIX}{key}: {column!r} is not an "
+                                 f"output column; use one of {', '.join(OUTPUT_CHANNELS)}")
+            outputs[column] = tuple(_named(model, where, key, mujoco.mjtObj.mjOBJ_SENSOR,
+                                           v.strip()) for v in value.split("+"))
+    return inputs, outputs
+
+
+def _controller(spec: mujoco.MjSpec, model: mujoco.MjModel, where: str,
+                inputs: Mapping[str, str]) -> tuple[str | None, str | None, str | None]:
+    """(the sampled PD's instance, its actuator, the record column that drives it), or Nones;
+    every vibrofriction actuator plugin must be a named instance (identification sets it by
+    name)."""
+    controller = controller_actuator = controller_input = None
+    for i in range(model.nu):
+        p = int(model.actuator_plugin[i])
+        if p < 0:
+            continue
+        actuator = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, i)
+        instance = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_PLUGIN, p)
+        declared = next((q for q in spec.plugins if instance and q.name == instance), None)
+        kind = declared.plugin_name if declared is not None else \
+            (spec.actuator(actuator).plugin.plugin_name if actuator else "")
+        if kind not in ("vibrofriction.sampled_pd", "vibrofriction.friction"):
+            continue
+        if not instance:  # configured inline: identification sets it by instance name
+            raise InputError(f"model {where}: the {kind} plugin of actuator "
+                             f"{actuator or i!r} has no instance name; declare it in "
+                             "<extension><plugin><instance name=\"...\"> and reference it "
+                             "with instance=\"...\"")
+        if kind == "vibrofriction.sampled_pd":
+            controller, controller_actuator = instance, actuator
+            controller_input = next((c for c, a in inputs.items() if a == actuator), None)
+    return controller, controller_actuator, controller_input
+
+
+def _friction_plugin(model: mujoco.MjModel, where: str) -> int:
+    """The plugin id behind the actuator FRICTION_ACTUATOR (InputError when there is none)."""
+    friction = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, FRICTION_ACTUATOR)
+    plugin = int(model.actuator_plugin[friction]) if friction >= 0 else -1
+    if plugin < 0:
+        raise InputError(f"model {where}: no actuator named {FRICTION_ACTUATOR!r} backed by a "
+                         "vibrofriction.friction instance; the friction to identify is that "
+                         "element")
+    return plugin
+
+
+def _friction_instance(spec: mujoco.MjSpec, model: mujoco.MjModel, where: str,
+                       plugin: int) -> tuple[str, dict[str, str]]:
+    """(the name, the config) of the vibrofriction.friction instance ``plugin`` behind the
+    actuator FRICTION_ACTUATOR, whose normal load the record can drive."""
+    instance = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_PLUGIN, plugin)
+    declared = next((p for p in spec.plugins if instance and p.name == instance), None)
+    if declared is None or declared.plugin_name != "vibrofriction.friction":
+        raise InputError(f"model {where}: the actuator {FRICTION_ACTUATOR!r} must be backed by "
+                         "a named vibrofriction.friction instance (declared in <extension> "
+                         "and referenced with instance=\"...\")")
+    config = dict(declared.config)
+    if config.get("normal_from_ctrl", "").strip() == "true":
+        raise InputError(f"model {where}: the friction element takes its normal load from "
+                         "its ctrl (normal_from_ctrl), which a machine record cannot drive "
+                         "(its columns map to ctrl only through the model's "
+                         "vibrofriction:input texts); give it a constant normal or a "
+                         "normal_sensor")
+    return instance, config
+
+
 @dataclass(frozen=True)
 class MachineScene:
     """A machine model: its file and the names identification relies on (read from the
@@ -100,97 +221,22 @@ class MachineScene:
     def from_file(cls, path: Path, name: str | None = None) -> "MachineScene":
         """Read a scene's mapping; InputError naming what is missing and how to add it."""
         where = str(path)
-        if not Path(path).is_file():
-            raise InputError(f"model {where} does not exist; name a bundled model "
-                             f"({', '.join(sorted(BUNDLED))}) or an MJCF file")
-        load()
-        try:
-            spec = mujoco.MjSpec.from_file(str(path))
-            model = spec.compile()
-        except Exception as exc:  # MuJoCo's parse and compile errors
-            raise InputError(f"model {where} does not load: {exc}") from None
-        texts = {t.name[len(TEXT_PREFIX):]: t.data.strip() for t in spec.texts
-                 if t.name.startswith(TEXT_PREFIX)}
-
-        def named(kind: str, obj: mujoco.mjtObj, value: str) -> str:
-            if mujoco.mj_name2id(model, obj, value) < 0:
-                raise InputError(f"model {where}: {TEXT_PREFIX}{kind} names {value!r}, which "
-                                 f"is no {obj.name[6:].lower()} of the model")
-            return value
-
-        for key in texts:
-            if key not in ("joint", "body", "damping", "description") and \
-                    key.partition(":")[0] not in ("input", "output"):
-                raise InputError(f"model {where}: {TEXT_PREFIX}{key} is not a key of the mapping "
-                                 "(joint, body, damping, description, input:COLUMN, "
-                                 "output:COLUMN)")
-        for key in ("joint", "body"):
-            if key not in texts:
-                raise InputError(
-                    f"model {where}: say which {key} the record's motion is, e.g. <custom><text "
-                    f"name=\"{TEXT_PREFIX}{key}\" data=\"NAME\"/></custom>")
-        joint = named("joint", mujoco.mjtObj.mjOBJ_JOINT, texts["joint"])
-        body = named("body", mujoco.mjtObj.mjOBJ_BODY, texts["body"])
+        spec, model = _loaded_scene(path, where)
+        texts = _mapping_texts(spec, where)
+        joint = _named(model, where, "joint", mujoco.mjtObj.mjOBJ_JOINT, texts["joint"])
+        body = _named(model, where, "body", mujoco.mjtObj.mjOBJ_BODY, texts["body"])
         damped = None
         if "damping" in texts:
-            damped = named("damping", mujoco.mjtObj.mjOBJ_JOINT, texts["damping"])
+            damped = _named(model, where, "damping", mujoco.mjtObj.mjOBJ_JOINT, texts["damping"])
             if model.joint(damped).type[0] != mujoco.mjtJoint.mjJNT_SLIDE:
                 raise InputError(f"model {where}: {TEXT_PREFIX}damping names {damped!r}, which "
                                  "is not a slide joint; only a slide joint's damping (N s/m) "
                                  "is fitted")
-        inputs, outputs = {}, {}
-        for key, value in texts.items():
-            kind, _, column = key.partition(":")
-            if kind == "input":
-                if column not in INPUT_COLUMNS:
-                    raise InputError(f"model {where}: {TEXT_PREFIX}{key}: {column!r} is not an "
-                                     f"input column; use one of {', '.join(INPUT_COLUMNS)}")
-                inputs[column] = named(key, mujoco.mjtObj.mjOBJ_ACTUATOR, value)
-            elif kind == "output":
-                if column not in OUTPUT_CHANNELS:
-                    raise InputError(f"model {where}: {TEXT_PREFIX}{key}: {column!r} is not an "
-                                     f"output column; use one of {', '.join(OUTPUT_CHANNELS)}")
-                outputs[column] = tuple(named(key, mujoco.mjtObj.mjOBJ_SENSOR, v.strip())
-                                        for v in value.split("+"))
-        friction = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, FRICTION_ACTUATOR)
-        plugin = int(model.actuator_plugin[friction]) if friction >= 0 else -1
-        if plugin < 0:
-            raise InputError(f"model {where}: no actuator named {FRICTION_ACTUATOR!r} backed by a "
-                             "vibrofriction.friction instance; the friction to identify is that "
-                             "element")
-        controller = controller_actuator = controller_input = None
-        for i in range(model.nu):
-            p = int(model.actuator_plugin[i])
-            if p < 0:
-                continue
-            actuator = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, i)
-            instance = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_PLUGIN, p)
-            declared = next((q for q in spec.plugins if instance and q.name == instance), None)
-            kind = declared.plugin_name if declared is not None else \
-                (spec.actuator(actuator).plugin.plugin_name if actuator else "")
-            if kind not in ("vibrofriction.sampled_pd", "vibrofriction.friction"):
-                continue
-            if not instance:  # configured inline: identification sets it by instance name
-                raise InputError(f"model {where}: the {kind} plugin of actuator "
-                                 f"{actuator or i!r} has no instance name; declare it in "
-                                 "<extension><plugin><instance name=\"...\"> and reference it "
-                                 "with instance=\"...\"")
-            if kind == "vibrofriction.sampled_pd":
-                controller, controller_actuator = instance, actuator
-                controller_input = next((c for c, a in inputs.items() if a == actuator), None)
-        instance = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_PLUGIN, plugin)
-        declared = next((p for p in spec.plugins if instance and p.name == instance), None)
-        if declared is None or declared.plugin_name != "vibrofriction.friction":
-            raise InputError(f"model {where}: the actuator {FRICTION_ACTUATOR!r} must be backed by "
-                             "a named vibrofriction.friction instance (declared in <extension> "
-                             "and referenced with instance=\"...\")")
-        config = dict(declared.config)
-        if config.get("normal_from_ctrl", "").strip() == "true":
-            raise InputError(f"model {where}: the friction element takes its normal load from "
-                             "its ctrl (normal_from_ctrl), which a machine record cannot drive "
-                             "(its columns map to ctrl only through the model's "
-                             "vibrofriction:input texts); give it a constant normal or a "
-                             "normal_sensor")
+        inputs, outputs = _mapped_columns(model, where, texts)
+        friction_plugin = _friction_plugin(model, where)
+        controller, controller_actuator, controller_input = _controller(spec, model, where,
+                                                                        inputs)
+        instance, config = _friction_instance(spec, model, where, friction_plugin)
         return cls(path=Path(path).resolve(), name=name or Path(path).stem, body=body,
                    joint=joint, controller=controller, controller_actuator=controller_actuator,
                    controller_input=controller_input, inputs=inputs, outputs=outputs,

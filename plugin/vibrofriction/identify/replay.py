@@ -643,33 +643,9 @@ def prepare_rig_replay(dataset: Dataset, *, substeps: int | None = None) -> RigR
     t, sample_dt = uniform_times(dataset, where, lambda t: float(np.median(np.diff(t))))
     # (the dataset format guarantees a force column: drive_force_N or friction_force_N)
     measured = {c: np.asarray(columns[c], dtype=float) for c in OUTPUT_CHANNELS if c in columns}
-    missing = [k for k in ("drive_stiffness_N_per_m", "drive_velocity_m_per_s")
-               if getattr(meta, k) is None]
-    if missing:
-        raise InputError(f"{where}: the rig replay needs {' and '.join(missing)} in the "
-                         "sidecar (or --set NAME=VALUE): the drive spring and the speed "
-                         "of its far end")
-    k_d, v_d = meta.drive_stiffness_N_per_m, meta.drive_velocity_m_per_s
-    if k_d <= 0 or v_d == 0:
-        raise InputError(f"{where}: the rig replay needs drive_stiffness_N_per_m > 0 and a "
-                         f"non-zero drive_velocity_m_per_s (got {k_d!r}, {v_d!r})")
+    k_d, v_d = _drive_spring(meta, where)
     frequency = meta.vibration_frequency_Hz
-    support_velocity = np.asarray(dataset.support_velocity_m_per_s, dtype=float)
-    vibrating = bool(frequency) and np.ptp(support_velocity) > 0
-    if vibrating and frequency * sample_dt > 0.4:
-        raise InputError(f"{where}: vibration_frequency_Hz {frequency:g} is above 0.8 of the "
-                         f"Nyquist frequency of the record ({0.5 / sample_dt:g} Hz): the "
-                         "support's motion is not resolved; record it faster")
-    still = vibrating and "support_position_m" not in columns and \
-        noise_only_vibration(support_velocity, sample_dt, frequency)
-    if still:
-        # A vibrometer's noise on a support that does not vibrate: the support stands still.
-        # Kept in the vibration band, the noise dithered the contact (measured on a Dahl
-        # stick-slip record with 20 um/s of noise: the true values 16 noise sd rms off, the
-        # fit 5.6 % off in the drive force); low-passed (f/64), it integrated to a 4 nm
-        # wander of the table, which the fit took for a ripple.
-        vibrating = False
-        support_velocity = np.zeros_like(support_velocity)
+    support_velocity, vibrating, still = _support_vibration(dataset, sample_dt, where)
     substeps, from_record = substeps_of_record(dataset, sample_dt, substeps)
     if substeps is None:
         substeps = 1
@@ -684,64 +660,14 @@ def prepare_rig_replay(dataset: Dataset, *, substeps: int | None = None) -> RigR
     if vibrating and not meta.simulation_timestep_s:  # (a simulator's record: its own grid)
         timestep = sliding_timestep(sample_dt, substeps, frequency)
         sliding = sample_dt / timestep
-    # Support displacement at every step's end (the motion actuator's ctrl): the measured
-    # position's cubic spline, else the exact integral of the measured velocity's (trapezoid
-    # sums lose ~(w dt)^2/12 of the amplitude: 0.5 % at 25 samples a period).
     nstep = grid_steps(len(t), substeps, sliding)
     step_ends = t[0] + timestep * np.arange(1, nstep + 1)
-    if "support_position_m" in columns:
-        support_position = np.asarray(columns["support_position_m"], dtype=float)
-        if vibrating:
-            # A displacement sensor's noise passes through a stiff contact as friction noise
-            # (1 nm at 60 N/um: 0.06 N): kept to the vibration band and the slow motion.
-            # (a straight line out first: the slow part is a low-pass, whose ends a large
-            # offset or drift would bend)
-            trend = np.polyval(np.polyfit(t - t[0], support_position, 1), t - t[0])
-            band = vibration_band(support_position - trend, sample_dt, frequency)
-            smooth = trend + band + slow_part(support_position - trend - band, sample_dt,
-                                              frequency)
-            support_position = _filtered_if_noisy(support_position, smooth)
-        table = make_interp_spline(t, support_position, k=3)(step_ends, extrapolate=True)
-    elif "support_velocity_m_per_s" in columns:
-        if vibrating:
-            # Only the vibration is kept: a vibrometer's broadband noise would otherwise shake
-            # the contact like a real dither (20 um/s at 100 kHz makes a LuGre slider creep by
-            # ~10 nm in 20 ms) and its integral would drift as a random walk. A velocity with
-            # no such noise is kept whole (the band would smear an abrupt start).
-            support_velocity = _filtered_if_noisy(
-                support_velocity, vibration_band(support_velocity, sample_dt, frequency))
-        support_position, table = support_displacement(
-            t, support_velocity, step_ends, meta.simulation_timestep_s)
-    else:
-        support_position = np.zeros_like(t)
-        table = np.zeros(nstep)
+    support_position, table, support_velocity = _support_motion(
+        dataset, t, sample_dt, step_ends, support_velocity, vibrating)
     position = np.asarray(dataset.position_m, dtype=float)
     velocity0 = float(dataset.velocity_m_per_s[0]) if "velocity_m_per_s" in columns else \
         float(smoothed_derivative(position[:32], t[:32])[0])
-    # Quasi-static equilibrium: the spring holds the slider (a measured friction force at the
-    # first sample may be mostly bristle damping of a starting motion, not deflection).
-    if "drive_force_N" in columns:
-        friction0 = float(columns["drive_force_N"][0])
-    elif "friction_force_N" in columns:
-        friction0 = float(columns["friction_force_N"][0])
-    else:
-        friction0 = 0.0
-    if "drive_force_N" in columns:
-        # The dynamometer is the drive spring: x + F_d / k_d - v_d t is the far end's start at
-        # every sample; their mean has sqrt(n) less noise than the first sample alone. (With
-        # a play the estimate is off by up to half of it; a backlash candidate's play is placed
-        # relative to the start, so its faces land where the record puts them whatever this
-        # estimate: ``backlash_centre_m``.)
-        ends = position + np.asarray(columns["drive_force_N"], dtype=float) / k_d - \
-            v_d * (t - t[0])
-        drive_end0 = float(np.mean(ends))
-    else:
-        drive_end0 = float(position[0])
-    holding = next((columns[c] for c in ("drive_force_N", "friction_force_N") if c in columns),
-                   None)
-    play_side = 0.0  # (a force within 5 noise sd of 0 at the start: the play is open)
-    if holding is not None and abs(friction0) > 5.0 * noise_sd(np.asarray(holding, dtype=float)):
-        play_side = math.copysign(1.0, friction0)
+    friction0, drive_end0, play_side = _drive_start(columns, t, position, k_d, v_d)
     drive_end = drive_end0 + v_d * (step_ends - t[0])
     control = np.zeros((nstep, 4))
     control[:, 0], control[:, 1] = table, drive_end  # actuator order of rig.xml
@@ -769,6 +695,115 @@ def prepare_rig_replay(dataset: Dataset, *, substeps: int | None = None) -> RigR
             t, position - support_position,
             np.asarray(columns["velocity_m_per_s"]) - support_velocity
             if "velocity_m_per_s" in columns else None))
+
+
+def _drive_spring(meta, where: str) -> tuple[float, float]:
+    """(k_d in N/m, v_d in m/s) of the record's drive spring, refused in one line when the
+    sidecar lacks them or they cannot drive."""
+    missing = [k for k in ("drive_stiffness_N_per_m", "drive_velocity_m_per_s")
+               if getattr(meta, k) is None]
+    if missing:
+        raise InputError(f"{where}: the rig replay needs {' and '.join(missing)} in the "
+                         "sidecar (or --set NAME=VALUE): the drive spring and the speed "
+                         "of its far end")
+    k_d, v_d = meta.drive_stiffness_N_per_m, meta.drive_velocity_m_per_s
+    if k_d <= 0 or v_d == 0:
+        raise InputError(f"{where}: the rig replay needs drive_stiffness_N_per_m > 0 and a "
+                         f"non-zero drive_velocity_m_per_s (got {k_d!r}, {v_d!r})")
+    return k_d, v_d
+
+
+def _support_vibration(dataset: Dataset, sample_dt: float,
+                       where: str) -> tuple[np.ndarray, bool, bool]:
+    """(the support's measured velocity in m/s, whether it vibrates, whether a vibrometer's
+    noise alone was taken for a still support: then the velocity is zeros)."""
+    frequency = dataset.metadata.vibration_frequency_Hz
+    support_velocity = np.asarray(dataset.support_velocity_m_per_s, dtype=float)
+    vibrating = bool(frequency) and np.ptp(support_velocity) > 0
+    if vibrating and frequency * sample_dt > 0.4:
+        raise InputError(f"{where}: vibration_frequency_Hz {frequency:g} is above 0.8 of the "
+                         f"Nyquist frequency of the record ({0.5 / sample_dt:g} Hz): the "
+                         "support's motion is not resolved; record it faster")
+    still = vibrating and "support_position_m" not in dataset.columns and \
+        noise_only_vibration(support_velocity, sample_dt, frequency)
+    if still:
+        # A vibrometer's noise on a support that does not vibrate: the support stands still.
+        # Kept in the vibration band, the noise dithered the contact (measured on a Dahl
+        # stick-slip record with 20 um/s of noise: the true values 16 noise sd rms off, the
+        # fit 5.6 % off in the drive force); low-passed (f/64), it integrated to a 4 nm
+        # wander of the table, which the fit took for a ripple.
+        vibrating = False
+        support_velocity = np.zeros_like(support_velocity)
+    return support_velocity, vibrating, still
+
+
+def _support_motion(dataset: Dataset, t: np.ndarray, sample_dt: float, step_ends: np.ndarray,
+                    support_velocity: np.ndarray,
+                    vibrating: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(the support's position at the samples (m), its displacement at every step's end (the
+    motion actuator's ctrl, m), its velocity at the samples (m/s)): the measured position's
+    cubic spline, else the exact integral of the measured velocity's (trapezoid sums lose
+    ~(w dt)^2/12 of the amplitude: 0.5 % at 25 samples a period), else still."""
+    columns = dataset.columns
+    frequency = dataset.metadata.vibration_frequency_Hz
+    if "support_position_m" in columns:
+        support_position = np.asarray(columns["support_position_m"], dtype=float)
+        if vibrating:
+            # A displacement sensor's noise passes through a stiff contact as friction noise
+            # (1 nm at 60 N/um: 0.06 N): kept to the vibration band and the slow motion.
+            # (a straight line out first: the slow part is a low-pass, whose ends a large
+            # offset or drift would bend)
+            trend = np.polyval(np.polyfit(t - t[0], support_position, 1), t - t[0])
+            band = vibration_band(support_position - trend, sample_dt, frequency)
+            smooth = trend + band + slow_part(support_position - trend - band, sample_dt,
+                                              frequency)
+            support_position = _filtered_if_noisy(support_position, smooth)
+        table = make_interp_spline(t, support_position, k=3)(step_ends, extrapolate=True)
+    elif "support_velocity_m_per_s" in columns:
+        if vibrating:
+            # Only the vibration is kept: a vibrometer's broadband noise would otherwise shake
+            # the contact like a real dither (20 um/s at 100 kHz makes a LuGre slider creep by
+            # ~10 nm in 20 ms) and its integral would drift as a random walk. A velocity with
+            # no such noise is kept whole (the band would smear an abrupt start).
+            support_velocity = _filtered_if_noisy(
+                support_velocity, vibration_band(support_velocity, sample_dt, frequency))
+        support_position, table = support_displacement(
+            t, support_velocity, step_ends, dataset.metadata.simulation_timestep_s)
+    else:
+        support_position = np.zeros_like(t)
+        table = np.zeros(len(step_ends))
+    return support_position, table, support_velocity
+
+
+def _drive_start(columns: Mapping[str, np.ndarray], t: np.ndarray, position: np.ndarray,
+                 k_d: float, v_d: float) -> tuple[float, float, float]:
+    """(the friction force at the first sample (N), the drive's far end at the first sample
+    (m), the side of a play the spring holds the slider on: +-1, 0 when it is open)."""
+    # Quasi-static equilibrium: the spring holds the slider (a measured friction force at the
+    # first sample may be mostly bristle damping of a starting motion, not deflection).
+    if "drive_force_N" in columns:
+        friction0 = float(columns["drive_force_N"][0])
+    elif "friction_force_N" in columns:
+        friction0 = float(columns["friction_force_N"][0])
+    else:
+        friction0 = 0.0
+    if "drive_force_N" in columns:
+        # The dynamometer is the drive spring: x + F_d / k_d - v_d t is the far end's start at
+        # every sample; their mean has sqrt(n) less noise than the first sample alone. (With
+        # a play the estimate is off by up to half of it; a backlash candidate's play is placed
+        # relative to the start, so its faces land where the record puts them whatever this
+        # estimate: ``backlash_centre_m``.)
+        ends = position + np.asarray(columns["drive_force_N"], dtype=float) / k_d - \
+            v_d * (t - t[0])
+        drive_end0 = float(np.mean(ends))
+    else:
+        drive_end0 = float(position[0])
+    holding = next((columns[c] for c in ("drive_force_N", "friction_force_N") if c in columns),
+                   None)
+    play_side = 0.0  # (a force within 5 noise sd of 0 at the start: the play is open)
+    if holding is not None and abs(friction0) > 5.0 * noise_sd(np.asarray(holding, dtype=float)):
+        play_side = math.copysign(1.0, friction0)
+    return friction0, drive_end0, play_side
 
 
 # Stick phases (``stick_phase_steps``): between two slips (speed relative to the support above

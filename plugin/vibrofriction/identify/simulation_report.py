@@ -197,45 +197,66 @@ def _baseline_start_line(result: SimIdentification) -> str:
 
 
 def report_markdown(result: SimIdentification) -> str:
+    """report.md of an identification by simulation: how the record was replayed, the error
+    before and after, the selection, the final model, the residual's diagnostics and how to
+    run what was fitted."""
     r = result
-    replay = r.train
     diagnosis = residual_diagnostics.for_simulation(r)
-    lines = [f"# Identification by simulation: {replay.name}", "",
-             f"- law: **{r.law}**" + (f" + declared {', '.join(r.declared)}" if r.declared
-                                      else ""),
-             (f"- method: output error{', in closed loop' if replay.scene.controller else ''}. "
-              f"The scene ({replay.scene.path.name}: {replay.scene.description}) runs in "
-              "MuJoCo with the friction plugin" + (
-                  " and the machine's own controller, driven by the record's reference"
-                  if replay.scene.controller else ", driven by the record's inputs") +
-              "; its sensors predict what the record measured." if _is_machine(r) else
-              "- method: output error. The rig scene (mjcf_models/rig) runs in MuJoCo with the "
-              "friction plugin, driven by the record's support motion and the drive end's "
-              "motion; its sensors predict what the record measured.") +
-             " Nothing measured is differentiated to form the prediction.",
-             _baseline_start_line(r),
-             f"- MuJoCo timestep {replay.timestep_s:.4g} s ({replay.steps_per_sample:.4g} "
-             "step(s) a sample" +
-             (", on a grid sliding along the vibration" if replay.sliding else "") +
-             f"); {r.simulations} simulations in {r.seconds:.1f} s",
-             f"- record: `{replay.name}`, {replay.n} samples; measured outputs: " +
-             ", ".join(f"{c} (white-noise sd {replay.noise[c]:.3g}, sd in the fit "
-                       f"{r.settings['noise_sd'][c]:.3g} {_UNITS[c]})"
-                       for c in replay.channels),
-             "- held-out records: " + (", ".join(f"`{v.name}`" for v in r.validation) or
-                                       "none"),
-             "- normal force: " + (
-                 f"the record's normal_force_N column, step by step (median "
-                 f"{replay.rig.normal_force_N:.6g} N, which the simulate line below holds "
-                 "constant)" if getattr(replay, "normal_force_from_record", False) else
-                 f"{replay.rig.normal_force_N:.6g} N" if replay.normal_force_known else
-                                   "not given: F_N = 1 N, so friction_coefficient is the "
-                                   "friction level in N"),
-             "- mass: " + ("identified" if r.settings.get("fit_mass") else
-                           f"{replay.rig.mass_kg:g} kg (sidecar)"),
-             "- initial velocity: " + _initial_velocity_text(r),
-             "", residual_diagnostics.verdict_sentence(diagnosis[r.primary]),
-             "", "## Error before and after", "",
+    informed = simulation_diagnostics(r)
+    lines = _method_lines(r, diagnosis) + _error_lines(r)
+    lines += informed.outlier_lines(_UNITS)
+    if r.closed_loop is not None:
+        lines += _closed_loop_section(r)
+    lines += _selection_lines(r)
+    lines += _final_model_lines(r, informed)
+    lines += _closing_lines(r, diagnosis)
+    return "\n".join(lines)
+
+
+def _method_lines(r: SimIdentification, diagnosis) -> list[str]:
+    """The title, the method, the record and its settings, and the verdict on the model."""
+    replay = r.train
+    return [f"# Identification by simulation: {replay.name}", "",
+            f"- law: **{r.law}**" + (f" + declared {', '.join(r.declared)}" if r.declared
+                                     else ""),
+            (f"- method: output error{', in closed loop' if replay.scene.controller else ''}. "
+             f"The scene ({replay.scene.path.name}: {replay.scene.description}) runs in "
+             "MuJoCo with the friction plugin" + (
+                 " and the machine's own controller, driven by the record's reference"
+                 if replay.scene.controller else ", driven by the record's inputs") +
+             "; its sensors predict what the record measured." if _is_machine(r) else
+             "- method: output error. The rig scene (mjcf_models/rig) runs in MuJoCo with the "
+             "friction plugin, driven by the record's support motion and the drive end's "
+             "motion; its sensors predict what the record measured.") +
+            " Nothing measured is differentiated to form the prediction.",
+            _baseline_start_line(r),
+            f"- MuJoCo timestep {replay.timestep_s:.4g} s ({replay.steps_per_sample:.4g} "
+            "step(s) a sample" +
+            (", on a grid sliding along the vibration" if replay.sliding else "") +
+            f"); {r.simulations} simulations in {r.seconds:.1f} s",
+            f"- record: `{replay.name}`, {replay.n} samples; measured outputs: " +
+            ", ".join(f"{c} (white-noise sd {replay.noise[c]:.3g}, sd in the fit "
+                      f"{r.settings['noise_sd'][c]:.3g} {_UNITS[c]})"
+                      for c in replay.channels),
+            "- held-out records: " + (", ".join(f"`{v.name}`" for v in r.validation) or
+                                      "none"),
+            "- normal force: " + (
+                f"the record's normal_force_N column, step by step (median "
+                f"{replay.rig.normal_force_N:.6g} N, which the simulate line below holds "
+                "constant)" if getattr(replay, "normal_force_from_record", False) else
+                f"{replay.rig.normal_force_N:.6g} N" if replay.normal_force_known else
+                                  "not given: F_N = 1 N, so friction_coefficient is the "
+                                  "friction level in N"),
+            "- mass: " + ("identified" if r.settings.get("fit_mass") else
+                          f"{replay.rig.mass_kg:g} kg (sidecar)"),
+            "- initial velocity: " + _initial_velocity_text(r),
+            "", residual_diagnostics.verdict_sentence(diagnosis[r.primary])]
+
+
+def _error_lines(r: SimIdentification) -> list[str]:
+    """Each channel's error, and each held-out record's, before and after the selection."""
+    replay = r.train
+    lines = ["", "## Error before and after", "",
              "| model | " + " | ".join(f"{c} relerr" for c in replay.channels) +
              "".join(f" | held-out `{v.name}`" for v in r.validation) + " |",
              "|---|" + "---|" * (len(replay.channels) + len(r.validation))]
@@ -245,10 +266,12 @@ def report_markdown(result: SimIdentification) -> str:
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
     lines += ["", "relerr = 100 ||y - y_sim|| / ||y|| of each measured channel; held-out "
               f"columns are of {r.primary}.", ""]
-    informed = simulation_diagnostics(r)
-    lines += informed.outlier_lines(_UNITS)
-    if r.closed_loop is not None:
-        lines += _closed_loop_section(r)
+    return lines
+
+
+def _selection_lines(r: SimIdentification) -> list[str]:
+    """The effects selected, and every candidate of every round with its verdict."""
+    lines: list[str] = []
     lines += ["## Selected effects", ""]
     if not r.selected:
         lines.append("None: no candidate passed the criterion; the baseline is the final "
@@ -281,6 +304,13 @@ def report_markdown(result: SimIdentification) -> str:
         lines.append(f"| – | {effect} | – | – | – | {why} |")
     for effect, why in r.skipped.items():
         lines.append(f"| – | {effect} | – | – | – | not a candidate: {why} |")
+    return lines
+
+
+def _final_model_lines(r: SimIdentification, informed) -> list[str]:
+    """The final model's parameters, their standard errors and whether the record informs
+    them."""
+    lines: list[str] = []
     lines += ["", "## Final model", "",
               "| parameter | value | standard error (fitted values) | informed |",
               "|---|---|---|---|"]
@@ -302,6 +332,14 @@ def report_markdown(result: SimIdentification) -> str:
               "residual variance scaled by the sample count over the effective one; they "
               "describe the record's noise, not a model that is wrong.",
               *informed.parameter_notes()]
+    return lines
+
+
+def _closing_lines(r: SimIdentification, diagnosis) -> list[str]:
+    """The residual's diagnostics, its peaks, where the series are, and how to run the
+    fitted model."""
+    replay = r.train
+    lines: list[str] = []
     lines += [""] + residual_diagnostics.markdown_lines(list(diagnosis.values()))
     lines += ["", "Residual peaks (Hz, " + r.primary + "): " +
               (", ".join(f"{f:.6g}" for f in r.residual_peaks_Hz) or "none"), "",
@@ -318,7 +356,7 @@ def report_markdown(result: SimIdentification) -> str:
         lines += [f"The fitted sensor lag ({r.final.values['sensor_lag_s']:.6g} s) is the "
                   "dynamometer's: the `time_constant` of the rig's `dynamometer` "
                   "(`vibrofriction.lagged_tendon`) sensor, not a friction attribute.", ""]
-    return "\n".join(lines)
+    return lines
 
 
 def _closed_loop_section(r: SimIdentification) -> list[str]:

@@ -405,18 +405,37 @@ def _newton(pmap: _Map, x: np.ndarray, tolerance: float, max_iterations: int,
     radius = float(np.max(np.abs(multipliers))) if multipliers.size else 0.0
     if J is None:
         radius = math.inf
-    # the error of the means: their gradient along the Newton correction still due; without
-    # the gradient, the change of the means over the last step (an overestimate)
-    mean = means[0]
-    if grad is None and mean_gradient is not None and mean_gradient.shape == (mean.size, n):
+    # the error of the means: their gradient along the Newton correction still due
+    if grad is None and mean_gradient is not None and mean_gradient.shape == (means[0].size, n):
         grad = mean_gradient
-    mean_residual = np.full_like(mean, np.inf)
+    mean_residual = _mean_residual(means[0], grad, J, residual, mean_change)
+    converged, message = _verdict(norm, tolerance, radius, iterations, accept_neutral)
+    return PeriodicOrbit(
+        converged=converged, message=message, state=pmap.states(x[None])[0],
+        period_s=0.0, multiple=1, steps=pmap.steps, residual=norm,
+        mean_residual=mean_residual, multipliers=multipliers, iterations=iterations,
+        evaluations=pmap.evaluations, steps_run=pmap.steps_run, sensordata=orbit_data,
+        coordinates=pmap.coordinates, jacobian=J, scale=scale, mean_gradient=grad)
+
+
+def _mean_residual(mean: np.ndarray, grad: np.ndarray | None, J: np.ndarray | None,
+                   residual: np.ndarray, mean_change: np.ndarray | None) -> np.ndarray:
+    """The error of the orbit's means (N): their gradient along the Newton correction still
+    due; without the gradient, their change over the last step (an overestimate); else inf."""
     if grad is not None and J is not None:
-        mean_residual = np.abs(grad @ _solve(J - eye, -residual))
-    elif mean_change is not None:
-        mean_residual = mean_change
+        return np.abs(grad @ _solve(J - np.eye(J.shape[0]), -residual))
+    if mean_change is not None:
+        return mean_change
+    return np.full_like(mean, np.inf)
+
+
+def _verdict(norm: float, tolerance: float, radius: float, iterations: int,
+             accept_neutral: bool) -> tuple[bool, str]:
+    """(converged, why) of a Newton solve: the residual within tolerance (of the orbit's
+    scale) and the orbit attracting (largest Floquet multiplier ``radius`` below 1; a neutral
+    one only with ``accept_neutral``)."""
     if not np.isfinite(norm):
-        converged, message = False, "the residual is not finite"
+        return False, "the residual is not finite"
     elif norm > tolerance:
         converged = False
         message = (f"Newton did not converge in {iterations} iterations (residual "
@@ -439,12 +458,7 @@ def _newton(pmap: _Map, x: np.ndarray, tolerance: float, max_iterations: int,
         converged = True
         message = (f"converged in {iterations} iterations (residual {norm:.2g}, largest "
                    f"Floquet multiplier {radius:.4g})")
-    return PeriodicOrbit(
-        converged=converged, message=message, state=pmap.states(x[None])[0],
-        period_s=0.0, multiple=1, steps=pmap.steps, residual=norm,
-        mean_residual=mean_residual, multipliers=multipliers, iterations=iterations,
-        evaluations=pmap.evaluations, steps_run=pmap.steps_run, sensordata=orbit_data,
-        coordinates=pmap.coordinates, jacobian=J, scale=scale, mean_gradient=grad)
+    return converged, message
 
 
 def _multipliers(J: np.ndarray) -> np.ndarray:
@@ -605,6 +619,38 @@ def neutral_is_safe(friction: FrictionParameters) -> bool:
 
 
 @_trial_warnings_held()
+def _shooting_grid(rig: RigParameters, timestep_s: float,
+                   vibrating: bool) -> tuple[float, int, float, float]:
+    """(T the vibration period in s, N steps a period, the timestep dt1 = T / N in s, the
+    shooting period in s); without vibration T = N = 0 and the period is a quarter period of
+    the slider on the drive spring (``static_period_s``) at ``timestep_s``."""
+    if not vibrating:
+        return 0, 0, timestep_s, static_period_s(rig, timestep_s)
+    T = 1.0 / rig.vibration_frequency_Hz
+    ratio = T / timestep_s
+    N = int(round(ratio)) if abs(ratio - round(ratio)) < 1e-6 else int(math.floor(ratio))
+    if N < 8:
+        raise ParameterError(
+            f"timestep {plain_value(timestep_s)} s leaves {ratio:.3g} steps per vibration period; "
+            "the periodic solver needs at least 8 (use a smaller timestep)")
+    return T, N, T / N, T
+
+
+def _averaging_map_guess(first: PeriodicOrbit) -> tuple[np.ndarray, np.ndarray | None]:
+    """The averaging map's Jacobian guessed from the one-period orbit's (its SLIDE_PERIODS-th
+    power), and the gradient of the means over it: the mean of the one-period means along it
+    (None without the one-period gradient)."""
+    guess = np.linalg.matrix_power(first.jacobian, SLIDE_PERIODS)
+    if first.mean_gradient is None:
+        return guess, None
+    powers = np.zeros_like(guess)
+    power = np.eye(guess.shape[0])
+    for _ in range(SLIDE_PERIODS):
+        powers += power
+        power = power @ first.jacobian
+    return guess, first.mean_gradient @ powers / SLIDE_PERIODS
+
+
 def solve_rig(rig: RigParameters, friction: FrictionParameters, *,
               timestep_s: float | None = None, tolerance: float = 1e-3,
               multiples: Sequence[int] = DEFAULT_MULTIPLES) -> RigOrbit:
@@ -621,19 +667,8 @@ def solve_rig(rig: RigParameters, friction: FrictionParameters, *,
     if not (timestep_s > 0 and math.isfinite(timestep_s)):
         raise ParameterError(f"timestep {plain_value(timestep_s)!r} must be a positive number of "
                              "seconds")
-    if vibrating:
-        T = 1.0 / rig.vibration_frequency_Hz
-        ratio = T / timestep_s
-        N = int(round(ratio)) if abs(ratio - round(ratio)) < 1e-6 else int(math.floor(ratio))
-        if N < 8:
-            raise ParameterError(
-                f"timestep {plain_value(timestep_s)} s leaves {ratio:.3g} steps per vibration period; "
-                "the periodic solver needs at least 8 (use a smaller timestep)")
-        dt1, period1 = T / N, T
-    else:
-        T = N = 0
-        dt1 = timestep_s
-        period1 = static_period_s(rig, dt1)
+    T, N, dt1, period1 = _shooting_grid(rig, timestep_s, vibrating)
+    if not vibrating:
         multiples = (1,)
     model = rig_model.build_model(rig, friction, dt1)
     data = mujoco.MjData(model)
@@ -663,16 +698,7 @@ def solve_rig(rig: RigParameters, friction: FrictionParameters, *,
         dt_final = SLIDE_PERIODS * mult * T / steps13
         model.opt.timestep = dt_final
         mujoco.mj_setState(model, data, first.state, _FULL)
-        guess = np.linalg.matrix_power(first.jacobian, SLIDE_PERIODS)
-        # the means over the averaging map: the mean of the one-period means along it
-        gradient = None
-        if first.mean_gradient is not None:
-            powers = np.zeros_like(guess)
-            power = np.eye(guess.shape[0])
-            for _ in range(SLIDE_PERIODS):
-                powers += power
-                power = power @ first.jacobian
-            gradient = first.mean_gradient @ powers / SLIDE_PERIODS
+        guess, gradient = _averaging_map_guess(first)
         period13 = SLIDE_PERIODS * mult * T
         settings = dict(drift=drift_unit * rig.drive_velocity_m_per_s * period13,
                         coordinates=coords, multiples=(1,), accept_neutral=True,

@@ -28,6 +28,7 @@ import mujoco
 import numpy as np
 
 from ..errors import InputError
+from .. import sim
 from ..laws import load
 from ..params import ParameterError
 
@@ -127,6 +128,52 @@ def vibrate(spec: mujoco.MjSpec, body: str, *, axis=(1.0, 0.0, 0.0), frequency_H
         raise InputError(f"vibrate: spec must be a mujoco.MjSpec, not {type(spec).__name__}; "
                          "e.g. mujoco.MjSpec.from_file(path)")
     unit = _unit_axis(axis)
+    motion = _motion_config(frequency_Hz, velocity_amplitude_m_per_s, phase_rad, start_time_s,
+                            ramp_periods, use_ctrl)
+    apparent_mass = _number("armature", armature)
+    if apparent_mass <= 0:
+        raise ParameterError(f"vibrate: armature={armature!r} must be > 0 (kg)")
+    target = _vibrated_body(spec, body)
+    prefix = name if name is not None else body
+    actuator_name = instance_name = f"{prefix}_shaker"
+    for what, kind in (("an actuator", mujoco.mjtObj.mjOBJ_ACTUATOR),
+                       ("a plugin instance", mujoco.mjtObj.mjOBJ_PLUGIN)):
+        if _taken(spec, kind, actuator_name):
+            raise InputError(f"vibrate: the scene already has {what} named {actuator_name!r} "
+                             f"(body {body!r} vibrated already?); pass another name=...")
+
+    load()  # the plugins are known to the compiler
+    before = spec.compile()  # the scene as given: its coordinates and weld groups
+
+    notes: list[str] = []
+    joint_name, joint_added, gear = _driven_joint(spec, target, body, unit, apparent_mass,
+                                                  prefix, notes)
+    if joint_added:
+        _add_slide_joint(target, joint_name, unit, apparent_mass)
+    _add_shaker(spec, instance_name, actuator_name, joint_name, gear, motion)
+    _declare_after_the_motion(spec, notes)
+
+    excludes: list[tuple[str, str]] = []
+    if joint_added:
+        excludes = _keep_welded_contacts_off(spec, before, body, notes)
+    _extend_keyframes(spec, before, body, joint_added, 1.0 if use_ctrl else 0.0)
+
+    frequency = float(motion["frequency"])
+    steps = 1.0 / (frequency * spec.option.timestep)
+    if steps < MIN_STEPS_PER_PERIOD:
+        warnings.warn(f"vibrate: the timestep {spec.option.timestep:g} s takes {steps:.3g} steps "
+                      f"a period of {frequency:g} Hz; the vibration needs at least "
+                      f"{MIN_STEPS_PER_PERIOD} (docs/robots.md): lower spec.option.timestep",
+                      RuntimeWarning, stacklevel=2)
+    return VibratedBody(body=body, joint=joint_name, actuator=actuator_name,
+                        instance=instance_name, joint_added=joint_added,
+                        excludes=tuple(excludes), notes=tuple(notes))
+
+
+def _motion_config(frequency_Hz, velocity_amplitude_m_per_s, phase_rad, start_time_s,
+                   ramp_periods, use_ctrl: bool) -> dict[str, str]:
+    """The vibrofriction.motion config of the vibration, its numbers checked (vibrate's
+    parameters: Hz, m/s, rad, s, periods)."""
     frequency = _number("frequency_Hz", frequency_Hz)
     if frequency <= 0:
         raise ParameterError(f"vibrate: frequency_Hz={frequency_Hz!r} must be > 0 (Hz)")
@@ -142,10 +189,21 @@ def vibrate(spec: mujoco.MjSpec, body: str, *, axis=(1.0, 0.0, 0.0), frequency_H
     if (start > 0 or ramp > 0) and amplitude == 0:
         raise ParameterError("vibrate: start_time_s and ramp_periods shape a vibration; give "
                              "velocity_amplitude_m_per_s > 0 or leave them out")
-    apparent_mass = _number("armature", armature)
-    if apparent_mass <= 0:
-        raise ParameterError(f"vibrate: armature={armature!r} must be > 0 (kg)")
+    config = {"frequency": repr(frequency), "velocity_amplitude": repr(amplitude)}
+    if phase:
+        config["phase"] = repr(phase)
+    if start:
+        config["start_time"] = repr(start)
+    if ramp:
+        config["ramp_periods"] = repr(ramp)
+    if use_ctrl:
+        config["use_ctrl"] = "true"
+    return config
 
+
+def _vibrated_body(spec: mujoco.MjSpec, body: str) -> mujoco.MjsBody:
+    """The body ``vibrate`` drives: a named body of the scene that can move (not the world, not
+    a mocap body), in a scene whose integrator vibrofriction.motion takes."""
     if not isinstance(body, str) or not body:
         raise InputError(f"vibrate: body={body!r} must be the name of a body of the scene")
     if body == spec.worldbody.name:
@@ -164,105 +222,100 @@ def vibrate(spec: mujoco.MjSpec, body: str, *, axis=(1.0, 0.0, 0.0), frequency_H
         raise InputError("vibrate: the scene's integrator is RK4, which vibrofriction.motion "
                          "refuses; set spec.option.integrator to implicitfast (or Euler, "
                          "implicit)")
-    prefix = name if name is not None else body
-    actuator_name = instance_name = f"{prefix}_shaker"
-    for what, kind in (("an actuator", mujoco.mjtObj.mjOBJ_ACTUATOR),
-                       ("a plugin instance", mujoco.mjtObj.mjOBJ_PLUGIN)):
-        if _taken(spec, kind, actuator_name):
-            raise InputError(f"vibrate: the scene already has {what} named {actuator_name!r} "
-                             f"(body {body!r} vibrated already?); pass another name=...")
+    return target
 
-    load()  # the plugins are known to the compiler
-    before = spec.compile()  # the scene as given: its coordinates and weld groups
 
-    notes: list[str] = []
+def _driven_joint(spec: mujoco.MjSpec, target: mujoco.MjsBody, body: str, unit: np.ndarray,
+                  apparent_mass: float, prefix: str,
+                  notes: list[str]) -> tuple[str, bool, float]:
+    """(joint name, whether it is to be added, the actuator's gear): a welded body gets a new
+    slide joint; a body on one slide joint along ``unit`` keeps it, made fit to be driven
+    (named, armature at least ``apparent_mass`` kg, no actuator force limit: said in
+    ``notes``); anything else is refused, saying how to fix it."""
     joints = list(target.joints)
-    gear = 1.0
     if not joints:
-        joint_added = True
         joint_name = f"{prefix}_vibration"
         if _taken(spec, mujoco.mjtObj.mjOBJ_JOINT, joint_name):
             raise InputError(f"vibrate: the scene already has a joint named {joint_name!r}; "
                              "pass another name=...")
-    else:
-        joint_added = False
-        joint = joints[0]
-        kinds = ", ".join(f"{j.name or '(unnamed)'} ({mujoco.mjtJoint(j.type).name[6:].lower()})"
-                          for j in joints)
-        if len(joints) == 1 and joint.type == mujoco.mjtJoint.mjJNT_FREE:
+        return joint_name, True, 1.0
+    joint = joints[0]
+    kinds = ", ".join(f"{j.name or '(unnamed)'} ({mujoco.mjtJoint(j.type).name[6:].lower()})"
+                      for j in joints)
+    if len(joints) == 1 and joint.type == mujoco.mjtJoint.mjJNT_FREE:
+        raise InputError(
+            f"vibrate: body {body!r} has a free joint (it is loose in the scene); delete it "
+            f"to fix the body where it is and call vibrate again "
+            f"(spec.delete(spec.body({body!r}).first_joint())), or vibrate the body it rests "
+            "on")
+    if len(joints) > 1 or joint.type != mujoco.mjtJoint.mjJNT_SLIDE:
+        raise InputError(
+            f"vibrate: body {body!r} moves on its joints {kinds}; vibrate drives a body fixed "
+            "to its parent or on one slide joint along the axis: vibrate a child body "
+            "welded to it (a <body> without joints inside it) instead")
+    joint_axis = np.asarray(joint.axis, dtype=float)
+    cosine = float(joint_axis @ unit) / float(np.linalg.norm(joint_axis))
+    if abs(cosine) < _PARALLEL:
+        raise InputError(
+            f"vibrate: body {body!r} slides on joint {joint.name or '(unnamed)'} along "
+            f"{tuple(float(x) for x in joint_axis)}, not along axis "
+            f"{tuple(float(x) for x in unit)}; pass that joint's axis, or vibrate a child "
+            "body welded to it")
+    gear = 1.0 if cosine > 0 else -1.0  # the actuator's length runs along the axis
+    for actuator in spec.actuators:
+        if (joint.name and actuator.trntype == mujoco.mjtTrn.mjTRN_JOINT
+                and actuator.target == joint.name):
             raise InputError(
-                f"vibrate: body {body!r} has a free joint (it is loose in the scene); delete it "
-                f"to fix the body where it is and call vibrate again "
-                f"(spec.delete(spec.body({body!r}).first_joint())), or vibrate the body it rests "
-                "on")
-        if len(joints) > 1 or joint.type != mujoco.mjtJoint.mjJNT_SLIDE:
-            raise InputError(
-                f"vibrate: body {body!r} moves on its joints {kinds}; vibrate drives a body fixed "
-                "to its parent or on one slide joint along the axis: vibrate a child body "
-                "welded to it (a <body> without joints inside it) instead")
-        joint_axis = np.asarray(joint.axis, dtype=float)
-        cosine = float(joint_axis @ unit) / float(np.linalg.norm(joint_axis))
-        if abs(cosine) < _PARALLEL:
-            raise InputError(
-                f"vibrate: body {body!r} slides on joint {joint.name or '(unnamed)'} along "
-                f"{tuple(float(x) for x in joint_axis)}, not along axis "
-                f"{tuple(float(x) for x in unit)}; pass that joint's axis, or vibrate a child "
-                "body welded to it")
-        gear = 1.0 if cosine > 0 else -1.0  # the actuator's length runs along the axis
-        for actuator in spec.actuators:
-            if (joint.name and actuator.trntype == mujoco.mjtTrn.mjTRN_JOINT
-                    and actuator.target == joint.name):
-                raise InputError(
-                    f"vibrate: joint {joint.name!r} of body {body!r} is already driven by "
-                    f"actuator {actuator.name or '(unnamed)'!r}; delete that actuator first "
-                    f"(spec.delete(spec.actuator({actuator.name!r}))) or drive it yourself")
-        if not joint.name:
-            joint_name = f"{prefix}_vibration"
-            if _taken(spec, mujoco.mjtObj.mjOBJ_JOINT, joint_name):
-                raise InputError(f"vibrate: body {body!r}'s slide joint has no name and "
-                                 f"{joint_name!r} is taken; name the joint or pass name=...")
-            joint.name = joint_name
-            notes.append(f"named body {body!r}'s slide joint {joint_name!r}")
-        joint_name = joint.name
-        if joint.armature < apparent_mass:
-            notes.append(f"raised joint {joint_name!r}'s armature from {joint.armature:g} to "
-                         f"{apparent_mass:g}")
-            joint.armature = apparent_mass
-        if _limited(joint.actfrclimited, joint.actfrcrange, spec):
-            notes.append(f"removed joint {joint_name!r}'s actuatorfrcrange (it would clip the "
-                         "shaker)")
-            joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_FALSE
+                f"vibrate: joint {joint.name!r} of body {body!r} is already driven by "
+                f"actuator {actuator.name or '(unnamed)'!r}; delete that actuator first "
+                f"(spec.delete(spec.actuator({actuator.name!r}))) or drive it yourself")
+    if not joint.name:
+        joint_name = f"{prefix}_vibration"
+        if _taken(spec, mujoco.mjtObj.mjOBJ_JOINT, joint_name):
+            raise InputError(f"vibrate: body {body!r}'s slide joint has no name and "
+                             f"{joint_name!r} is taken; name the joint or pass name=...")
+        joint.name = joint_name
+        notes.append(f"named body {body!r}'s slide joint {joint_name!r}")
+    joint_name = joint.name
+    if joint.armature < apparent_mass:
+        notes.append(f"raised joint {joint_name!r}'s armature from {joint.armature:g} to "
+                     f"{apparent_mass:g}")
+        joint.armature = apparent_mass
+    if _limited(joint.actfrclimited, joint.actfrcrange, spec):
+        notes.append(f"removed joint {joint_name!r}'s actuatorfrcrange (it would clip the "
+                     "shaker)")
+        joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    return joint_name, False, gear
 
-    if joint_added:
-        added = target.add_joint()
-        added.name = joint_name
-        added.type = mujoco.mjtJoint.mjJNT_SLIDE
-        added.axis = unit
-        added.pos = [0.0, 0.0, 0.0]
-        added.ref = 0.0
-        added.armature = apparent_mass
-        added.damping = np.zeros_like(np.asarray(added.damping, dtype=float))
-        added.stiffness = np.zeros_like(np.asarray(added.stiffness, dtype=float))
-        added.springref = 0.0
-        added.frictionloss = 0.0
-        added.limited = mujoco.mjtLimited.mjLIMITED_FALSE
-        added.actfrclimited = mujoco.mjtLimited.mjLIMITED_FALSE
-        added.margin = 0.0
-        added.actgravcomp = 0
 
+def _add_slide_joint(target: mujoco.MjsBody, joint_name: str, unit: np.ndarray,
+                     apparent_mass: float) -> None:
+    """A slide joint along ``unit`` with armature ``apparent_mass`` (kg) and nothing else:
+    no damping, stiffness, friction loss, limits or gravity compensation."""
+    added = target.add_joint()
+    added.name = joint_name
+    added.type = mujoco.mjtJoint.mjJNT_SLIDE
+    added.axis = unit
+    added.pos = [0.0, 0.0, 0.0]
+    added.ref = 0.0
+    added.armature = apparent_mass
+    added.damping = np.zeros_like(np.asarray(added.damping, dtype=float))
+    added.stiffness = np.zeros_like(np.asarray(added.stiffness, dtype=float))
+    added.springref = 0.0
+    added.frictionloss = 0.0
+    added.limited = mujoco.mjtLimited.mjLIMITED_FALSE
+    added.actfrclimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    added.margin = 0.0
+    added.actgravcomp = 0
+
+
+def _add_shaker(spec: mujoco.MjSpec, instance_name: str, actuator_name: str, joint_name: str,
+                gear: float, config: dict[str, str]) -> None:
+    """The vibrofriction.motion instance (its config checked against the table) and its
+    plugin actuator on the joint: gear +-1, ctrl 0..1, no dynamics, gain, bias or limits."""
     spec.activate_plugin(MOTION_PLUGIN)  # what <extension><plugin plugin=...> does in MJCF
     instance = spec.add_plugin(name=instance_name, plugin_name=MOTION_PLUGIN, active=True)
-    config = {"frequency": repr(frequency), "velocity_amplitude": repr(amplitude)}
-    if phase:
-        config["phase"] = repr(phase)
-    if start:
-        config["start_time"] = repr(start)
-    if ramp:
-        config["ramp_periods"] = repr(ramp)
-    if use_ctrl:
-        config["use_ctrl"] = "true"
-    instance.config = config
-
+    instance.config = sim.plugin_config(MOTION_PLUGIN, config)
     actuator = spec.add_actuator()
     actuator.name = actuator_name
     actuator.trntype = mujoco.mjtTrn.mjTRN_JOINT
@@ -288,7 +341,9 @@ def vibrate(spec: mujoco.MjSpec, body: str, *, axis=(1.0, 0.0, 0.0), frequency_H
     actuator.nsample = 0
     actuator.plugin = instance
 
-    # Plugins compute in declaration order: the actuator elements go after the motion.
+
+def _declare_after_the_motion(spec: mujoco.MjSpec, notes: list[str]) -> None:
+    """Plugins compute in declaration order: the actuator elements go after the motion."""
     for plugin in [p for p in spec.plugins if p.plugin_name in _AFTER_MOTION and p.name]:
         declared = (plugin.name, plugin.plugin_name, plugin.active, dict(plugin.config))
         spec.delete(plugin)
@@ -296,21 +351,6 @@ def vibrate(spec: mujoco.MjSpec, body: str, *, axis=(1.0, 0.0, 0.0), frequency_H
         moved.config = declared[3]
         notes.append(f"declared {declared[1]} instance {declared[0]!r} after the shaker (plugins "
                      "compute in declaration order)")
-
-    excludes: list[tuple[str, str]] = []
-    if joint_added:
-        excludes = _keep_welded_contacts_off(spec, before, body, notes)
-    _extend_keyframes(spec, before, body, joint_added, 1.0 if use_ctrl else 0.0)
-
-    steps = 1.0 / (frequency * spec.option.timestep)
-    if steps < MIN_STEPS_PER_PERIOD:
-        warnings.warn(f"vibrate: the timestep {spec.option.timestep:g} s takes {steps:.3g} steps "
-                      f"a period of {frequency:g} Hz; the vibration needs at least "
-                      f"{MIN_STEPS_PER_PERIOD} (docs/robots.md): lower spec.option.timestep",
-                      RuntimeWarning, stacklevel=2)
-    return VibratedBody(body=body, joint=joint_name, actuator=actuator_name,
-                        instance=instance_name, joint_added=joint_added,
-                        excludes=tuple(excludes), notes=tuple(notes))
 
 
 def _keep_welded_contacts_off(spec: mujoco.MjSpec, before: mujoco.MjModel, body: str,
