@@ -272,3 +272,17 @@ def test_no_module_uses_another_modules_private_name() -> None:
     modules = _package_modules()
     used = {m: _private_uses(m, p, modules) for m, p in modules.items()}
     assert {m: u for m, u in used.items() if u} == {}
+
+
+def test_every_module_and_public_name_says_what_it_is() -> None:
+    """A module's head says what it holds; every public function and class has a docstring
+    (its parameters' units in the text, or numpydoc sections where a user calls it)."""
+    missing = []
+    for module, path in _package_modules().items():
+        tree = ast.parse(path.read_text())
+        if not ast.get_docstring(tree):
+            missing.append(module)
+        missing += [f"{module}.{node.name}" for node in tree.body
+                    if isinstance(node, (ast.FunctionDef, ast.ClassDef))
+                    and not node.name.startswith("_") and not ast.get_docstring(node)]
+    assert missing == []

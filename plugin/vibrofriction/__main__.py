@@ -1,3 +1,4 @@
+"""``python -m vibrofriction``: the ``vibrofriction`` command line (``cli.main``)."""
 import sys
 
 from .cli import main

@@ -42,6 +42,7 @@ class ArgumentParser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``vibrofriction`` parser, with one sub-parser per command of ``COMMANDS``."""
     parser = ArgumentParser(
         prog="vibrofriction",
         description="Dynamic friction (Coulomb, Dahl, Dupont, LuGre) with vibrating supports "
@@ -69,6 +70,8 @@ def version_line() -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line on ``argv`` (default ``sys.argv[1:]``); return the exit status
+    (2 for bad input, printed as one line)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "_run", None):

@@ -11,6 +11,8 @@ SCHEMA_VERSION = 1
 
 
 def versions() -> dict[str, str]:
+    """The versions of vibrofriction and of the installed MuJoCo, as every JSON output states
+    them."""
     import mujoco
 
     from . import __version__

@@ -8,6 +8,11 @@ import numpy as np
 
 @dataclass(frozen=True)
 class RunSummary:
+    """The summary of one rig run: the mean drive and friction forces over the averaging window
+    (whole vibration periods after the transient), the friction force's minimum and maximum
+    in it (all in N), whether it changes sign, the window's start and end (s) and the number
+    of periods averaged (0 without vibration)."""
+
     mean_drive_force_N: float
     mean_friction_force_N: float
     friction_min_N: float

@@ -44,6 +44,10 @@ PAPER_CONTACT_STIFFNESS_N_PER_M = 80.0e6
 
 @dataclass(frozen=True)
 class Term:
+    """One row of the vocabulary: a friction parameter's Python name, MJCF config key, C struct
+    field, unit, default, accepted magnitudes (SI), the laws it acts in, the elements whose
+    config takes it, and the effect whose form alone it sets, if any."""
+
     name: str  # Python, CLI and JSON name, SI unit in it
     mjcf_key: str  # config key, the same in every element that takes it
     law_field: str | None  # LawParameters / vf_law_parameters field (None: not a law value)

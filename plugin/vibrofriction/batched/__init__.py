@@ -33,6 +33,8 @@ def unavailable_reason() -> str | None:
 
 
 def available() -> bool:
+    """Whether MuJoCo Warp and Warp can be imported, so that ``BatchedTwin`` works
+    (``unavailable_reason`` says why not)."""
     return unavailable_reason() is None
 
 

@@ -158,6 +158,7 @@ def pseudo_inverse_solve(n: int, B: wp.mat33, b: wp.vec3, tiny: float) -> wp.vec
 
 @wp.func
 def norm_n(n: int, v: wp.vec3) -> float:
+    """The Euclidean norm of the first n components of v."""
     s = float(0.0)
     for i in range(n):
         s += v[i] * v[i]
@@ -166,6 +167,8 @@ def norm_n(n: int, v: wp.vec3) -> float:
 
 @wp.func
 def end_velocity(n: int, lam: float, B: wp.mat33, v_free: wp.vec3) -> wp.vec3:
+    """The end-of-step velocity u under the force lam u: (I + lam B) u = v_free on the first n
+    components (stick_slip's bisection on lam); v_free where the system is singular."""
     A = wp.mat33(0.0)
     for i in range(n):
         for j in range(n):
@@ -433,6 +436,11 @@ def solve_averaged(t: Tables, e: int, level: float, viscous: float, axis: wp.vec
 @wp.func
 def feeder_force(t: Tables, e: int, mu: float, stribeck_velocity: float, load: float,
                  B: wp.mat33, v: wp.vec3, v_free: wp.vec3, spin: int) -> wp.vec3:
+    """FeederMapForce, in the frame with x along the feeder's axis: the force along the axis,
+    -phi load, from element e's map (phi where the map's velocity-force curve meets the step's
+    response, linearly interpolated), then rigid Coulomb with stick across the axis (and, with
+    spin = 1, in torsion) within the rest of the cone, sqrt(mu^2 - phi^2) load; returns (along,
+    across, torsion), torsion 0 without spin."""
     adr = t.map_adr[e]
     n = t.map_num[e]
     gain = wp.max(B[0, 0], 0.0) * load
@@ -507,6 +515,8 @@ def helix_tangent(origin: wp.vec3, rotation: wp.mat33, point: wp.vec3, pitch: fl
 
 @wp.func
 def tangent1(normal: wp.vec3) -> wp.vec3:
+    """The contact frame's first tangent: x (y where the normal lies near x) with its normal
+    part removed, normalized; the second is normal x tangent1."""
     t1 = wp.vec3(1.0, 0.0, 0.0)
     if not (wp.abs(normal[0]) < 0.9):
         t1 = wp.vec3(0.0, 1.0, 0.0)
@@ -520,6 +530,9 @@ def sliding_velocity(el: Elements, e: int, world: int, point: wp.vec3, normal: w
                      dof_bodyid: wp.array(dtype=int), qvel: wp.array2d(dtype=float),
                      cdof: wp.array2d(dtype=wp.spatial_vector),
                      subtree_com: wp.array2d(dtype=wp.vec3)) -> wp.vec4:
+    """SlidingVelocity: element e's body relative to its support at the contact point, from
+    its chain dofs: (the tangential velocity in world coordinates (m/s), rho times the spin
+    about the normal (m/s))."""
     v = wp.vec3(0.0)
     w = wp.vec3(0.0)
     for k in range(el.chain_num[e]):
@@ -542,6 +555,9 @@ def rows_kernel(
     subtree_com: wp.array2d(dtype=wp.vec3),
     rows: wp.array3d(dtype=float),   # (3 ncolor, nworld, nv): J's rows, summed over a color
 ):
+    """Per (world, element) in contact: the three rows of the contact Jacobian J on the chain
+    dofs (tangent 1, tangent 2, rho times the spin about the normal), written to the rows of
+    the element's color (elements of one color share no kinematic tree), for M^-1 J'."""
     world, e = wp.tid()
     if not (state[world, e, 4] > 0.0):
         return
@@ -583,6 +599,14 @@ def force_kernel(
     known: wp.array2d(dtype=int),
     sensor: wp.array3d(dtype=float),
 ):
+    """The passive-force hook, per (world, element): this step's friction force.
+
+    With B = dt J M^-1 J' and the sliding velocity predicted from the other forces, the
+    element's law gives the force: the feeder map (contact_feeder), the averaged table under
+    vibration (contact_averaged), else rigid Coulomb with stick (with torsion where rho > 0).
+    Adds its generalized force to qfrc_passive, keeps the start velocity and the response
+    B f for advance_kernel, and fills the sensor; nothing without a contact load.
+    """
     world, e = wp.tid()
     known[world, e] = 0
     for k in range(10):
@@ -710,6 +734,10 @@ def contact_sum_kernel(
     sums: wp.array3d(dtype=float),   # (nworld, nelement, 8): F, F p (3), F n (3), F |p - p0|
     arm: int,                        # 0: the sums of F, F p, F n; 1: the arm (p0 known)
 ):
+    """Per contact after the step: for a contact between an element's body and its support with
+    a positive normal force F (N), add to that element's sums (arm 0) F, F p and F n, the
+    normal signed to point from the support to the body, or (arm 1, once the point
+    p0 = sum F p / sum F is known) F |p - p0|, for the torsion arm."""
     c = wp.tid()
     if c >= nacon[0]:
         return
@@ -757,6 +785,11 @@ def advance_kernel(
     known: wp.array2d(dtype=int),
     state: wp.array3d(dtype=float),
 ):
+    """Advance, per (world, element) after the step: this step's contact into the state: the
+    normal load (N), the force-weighted point, the unit normal, the torsion arm rho (m; the
+    config's, else the force-weighted distance from the point), and the rate of change of the
+    sliding velocity due to the other forces, for the next step's prediction; without contact
+    the state is zeroed."""
     world, e = wp.tid()
     total = sums[world, e, 0]
     normal = wp.vec3(sums[world, e, 4], sums[world, e, 5], sums[world, e, 6])

@@ -1,0 +1,1 @@
+"""The sub-commands of ``vibrofriction``, one module each (registered in ``cli.COMMANDS``)."""

@@ -36,6 +36,8 @@ def add_common_arguments(parser: argparse.ArgumentParser, *, law: bool = True,
 
 
 def parse_overrides(pairs: Sequence[str]) -> dict[str, str]:
+    """``--set`` values ``NAME=VALUE`` -> {NAME: VALUE} (strings, stripped; a later NAME wins);
+    UsageError for an entry without ``=``."""
     out: dict[str, str] = {}
     for pair in pairs:
         if "=" not in pair:

@@ -24,6 +24,7 @@ HELP = ("the paper's rig with MuJoCo's own friction (joint frictionloss, box-on-
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the compare-builtin command's options to its argparse parser."""
     parser.add_argument("--out", type=Path, default=Path("vibrofriction-builtin"),
                         metavar="DIR",
                         help="output folder (default ./vibrofriction-builtin: reproduce's "
@@ -45,6 +46,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run the compare-builtin command on parsed arguments; return the exit status."""
     overrides = parse_overrides(args.overrides)
     changes = {}
     if "vibration_from_s" in overrides:

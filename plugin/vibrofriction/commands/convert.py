@@ -12,6 +12,7 @@ HELP = ("convert a real friction record (EMPS .mat, friction-damper .json, pneum
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the convert command's options to its argparse parser."""
     parser.add_argument("source", choices=["auto", *CONVERTERS], metavar="SOURCE",
                         help=f"which recording INPUT is: auto, {', '.join(CONVERTERS)}; 'auto' "
                              "tells it from the suffix (.mat emps, .json friction-damper, "
@@ -23,6 +24,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run the convert command on parsed arguments; return the exit status."""
     outputs = (args.out, sidecar_path(args.out))  # checks the name before converting
     _refuse_overwriting_input(args.input, outputs)
     dataset = convert(args.source, args.input)

@@ -38,6 +38,7 @@ _METADATA_KEYS = ("mass_kg", "normal_force_N", "drive_stiffness_N_per_m",
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the identify command's options to its argparse parser."""
     parser.add_argument("data", type=Path, metavar="DATA",
                         help="training record: NAME.csv or NAME.csv.gz with its NAME.json")
     parser.add_argument("--validate", type=Path, action="append", default=[], metavar="DATA",
@@ -110,6 +111,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run the identify command on parsed arguments; return the exit status."""
     own: list[str] = []
     try:
         for path in args.effects_from:

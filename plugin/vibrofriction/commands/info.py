@@ -25,6 +25,7 @@ ENTRY_POINT = "vibrofriction.laws._mujoco_plugins:register"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the info command's options to its argparse parser."""
     parser.add_argument("--json", dest="json_path", default=None, metavar="FILE",
                         help="write the same as JSON to FILE")
 
@@ -81,6 +82,7 @@ def info() -> dict[str, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run the info command on parsed arguments; return the exit status."""
     payload = info()
     if args.json_path is not None:
         write_json(args.json_path, payload)

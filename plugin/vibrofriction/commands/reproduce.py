@@ -20,6 +20,7 @@ HELP = ("regenerate the paper's figures (Figs. 7-14, master curves), the built-i
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the reproduce command's options to its argparse parser."""
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT, metavar="DIR",
                         help=f"output folder (default ./{DEFAULT_OUT}); written beside it and "
                              "put in place when the run ends, so an existing DIR (empty or an "
@@ -44,6 +45,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def config_from_args(args: argparse.Namespace) -> StudyConfig:
+    """The study configuration from the options: quick or full, the ``--set`` overrides of the
+    paper's rig and friction, ``--timestep`` and ``--method``; ParameterError for what
+    reproduce does not accept (``law``, ``vibration_from_s``, a timestep <= 0)."""
     overrides = parse_overrides(args.overrides)
     changes = {}
     if overrides:
@@ -67,6 +71,7 @@ def config_from_args(args: argparse.Namespace) -> StudyConfig:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run the reproduce command on parsed arguments; return the exit status."""
     config = config_from_args(args)
     check_replaceable_folder(args.out, "--out", "claims.json")
     command = "vibrofriction " + " ".join(shlex.quote(a) for a in sys.argv[1:]) \

@@ -30,6 +30,7 @@ HELP = ("run the vibrating-support rig once: time series to CSV (dataset format)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the simulate command's options to its argparse parser."""
     add_common_arguments(parser)
     add_run_arguments(parser)
     parser.add_argument("--csv", dest="csv_path", type=Path, default=None, metavar="FILE",
@@ -250,6 +251,7 @@ def dataset_of(run: rig_module.RigRun, name: str) -> Dataset:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run the simulate command on parsed arguments; return the exit status."""
     rig, friction = parameters_from_args(args)
     if args.csv_path is not None:
         sidecar = sidecar_path(args.csv_path)  # checks the name before simulating

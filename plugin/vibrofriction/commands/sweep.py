@@ -21,6 +21,7 @@ HELP = ("master curve: mean drive force over the vibration velocity amplitudes -
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the sweep command's options to its argparse parser."""
     parser.add_argument("--va", required=True, metavar="V1,V2,...",
                         help="vibration velocity amplitudes v_a in m/s, comma-separated, each "
                              ">= 0, e.g. --va 0.75e-3,3e-3,20e-3")
@@ -69,6 +70,7 @@ def parse_amplitudes(text: str) -> list[float]:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run the sweep command on parsed arguments; return the exit status."""
     # Before anything else, so the refusal needs no cluster: a Dask task runs one amplitude on
     # its worker, whose thread count the worker sets, so --threads could not apply there.
     if args.threads is not None and args.scheduler is not None:

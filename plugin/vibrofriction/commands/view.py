@@ -20,11 +20,14 @@ HELP = "open a scene (an MJCF file or a bundled scene's name) in MuJoCo's intera
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the view command's options to its argparse parser."""
     parser.add_argument("scene", metavar="SCENE",
                         help="an MJCF file, or a bundled scene: " + ", ".join(bundled_names()))
 
 
 def bundled_scenes() -> dict[str, Path]:
+    """Bundled scene name -> its MJCF file: ``rig`` (the Dahl rig), ``rig-LAW``, ``emps`` and
+    the complete robot scenes (``ROBOT_SCENES``)."""
     from ..sim import MJCF_DIR
     scenes = {"rig": MJCF_DIR / "rig" / "scene_dahl.xml", "emps": MJCF_DIR / "emps" / "emps.xml"}
     scenes.update({f"rig-{p.stem[len('scene_'):]}": p
@@ -35,6 +38,7 @@ def bundled_scenes() -> dict[str, Path]:
 
 
 def bundled_names() -> list[str]:
+    """The names of the bundled scenes, as SCENE accepts them."""
     return list(bundled_scenes())
 
 
@@ -61,6 +65,7 @@ def has_display() -> bool:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run the view command on parsed arguments; return the exit status."""
     import mujoco
 
     from ..laws import load

@@ -460,6 +460,8 @@ def sidecar_path(csv_path: str | os.PathLike) -> Path:
 
 
 def dataset_name(csv_path: str | os.PathLike) -> str:
+    """The dataset's NAME: ``NAME.csv`` or ``NAME.csv.gz`` without the suffix (DatasetError for
+    another file name)."""
     return sidecar_path(csv_path).stem
 
 

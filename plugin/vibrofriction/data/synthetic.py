@@ -279,6 +279,8 @@ def _check_effect(effect: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """``python -m vibrofriction.data.synthetic``: write one synthetic record (with ``--effect``
+    hidden in it) to ``--out``; return the exit status (2 for bad input)."""
     parser = argparse.ArgumentParser(
         prog="python -m vibrofriction.data.synthetic",
         description="Write a synthetic rig record (dataset format) with one hidden effect.")

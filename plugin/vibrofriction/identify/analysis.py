@@ -34,6 +34,9 @@ SOKAL_C = 5.0
 
 @dataclass(frozen=True)
 class Binned:
+    """The residual's means in bins of one regressor (its unit ``unit``) and the share
+    of the residual variance they carry."""
+
     regressor: str
     unit: str
     centers: np.ndarray
@@ -44,6 +47,9 @@ class Binned:
 
 @dataclass(frozen=True)
 class Spectrum:
+    """The residual's power spectral density (N^2/Hz for a force), its noise floor and the
+    frequencies (Hz) of the peaks standing out of it."""
+
     frequency_Hz: np.ndarray
     psd: np.ndarray  # N^2/Hz
     floor: np.ndarray
@@ -77,6 +83,9 @@ RINGING_MIN_AMPLITUDE = 0.05  # of the residual's RMS
 
 @dataclass(frozen=True)
 class ResidualAnalysis:
+    """What a residual shows: its means against each regressor, its spectrum, its
+    autocorrelation (lags in s) and effective sample count, a ringing after reversals."""
+
     binned: dict[str, Binned]
     spectrum: Spectrum | None
     acf_lags_s: np.ndarray
@@ -92,6 +101,9 @@ class ResidualAnalysis:
 
 
 def analyse(record: Record, residual: np.ndarray) -> ResidualAnalysis:
+    """The residual (prediction - measurement, N) of ``record`` against the relative
+    velocity, the position on the support, the support's phase, the time and the time since
+    the last reversal; its spectrum and autocorrelation."""
     binned: dict[str, Binned] = {}
     v = record.relative_velocity_m_per_s
     binned["relative_velocity"] = _binned("relative velocity", "m/s", v, residual,
@@ -283,6 +295,7 @@ def _refine(frequency: np.ndarray, psd: np.ndarray, i: int) -> float:
 
 
 def autocorrelation(residual: np.ndarray, max_lag: int) -> tuple[np.ndarray, np.ndarray]:
+    """(lags in samples 0..max_lag, the residual's normalized autocorrelation there), by FFT."""
     x = residual - residual.mean()
     n = len(x)
     size = 1 << (2 * n - 1).bit_length()
@@ -303,6 +316,8 @@ def integrated_time(acf: np.ndarray) -> float:
 
 
 def effective_samples(residual: np.ndarray) -> float:
+    """The residual's sample count over its integrated autocorrelation time: the number of
+    independent samples it is worth (the BIC's n_eff)."""
     lags, acf = autocorrelation(residual, max_lag=min(len(residual) // 4, 2000))
     return len(residual) / integrated_time(acf)
 

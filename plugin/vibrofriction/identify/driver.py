@@ -83,6 +83,9 @@ class BackEnd(Protocol[C, F]):
 
 @dataclass(frozen=True, eq=False)
 class Selection(Generic[C, F]):
+    """The outcome of a forward selection: the final fit, each effect's last evaluation, the
+    rounds' candidates, the effects selected in order."""
+
     final: F
     candidates: dict[str, C]  # the last evaluation of each effect
     rounds: list[list[C]]

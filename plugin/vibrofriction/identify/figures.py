@@ -14,6 +14,8 @@ _MAX_POINTS = 6000
 
 
 def write_figures(result: Identification, folder: Path) -> list[Path]:
+    """The inverse path's figures in ``folder`` (the fit, the residual against its regressors
+    and its spectrum); returns their paths."""
     import matplotlib
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt

@@ -19,6 +19,8 @@ _TOL = 1e-8
 
 @dataclass(frozen=True)
 class Metrics:
+    """One record's error: RMSE (N) and relative error 100 ||y - y_hat|| / ||y|| (%)."""
+
     dataset: str
     rmse_N: float
     relerr_pct: float
@@ -30,6 +32,10 @@ class Metrics:
 
 @dataclass(frozen=True, eq=False)
 class FitResult:
+    """An inverse fit: the model, its parameter vector and physical values, the training
+    residual (N), its RSS and effective sample count, the values' standard errors, the error on
+    each record, the evaluations it took and the values at a bound."""
+
     model: Model
     q: np.ndarray
     values: dict[str, float]
@@ -116,6 +122,7 @@ def value_name(internal: str) -> str:
 
 
 def record_metrics(name: str, predicted: np.ndarray, measured: np.ndarray) -> Metrics:
+    """The error of ``predicted`` against ``measured`` (N) on the record ``name``."""
     error = predicted - measured
     norm = float(np.linalg.norm(measured))
     return Metrics(dataset=name, rmse_N=float(np.sqrt(np.mean(error ** 2))),

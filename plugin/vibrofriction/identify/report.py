@@ -43,6 +43,7 @@ def parameters(result: Identification, fit: FitResult) -> dict[str, float]:
 
 
 def report_json(result: Identification) -> dict[str, Any]:
+    """report.json of the inverse path (schema: docs/interfaces.md)."""
     def block(fit: FitResult) -> dict[str, Any]:
         return {"parameters": parameters(result, fit), "train": fit.train.as_dict(False),
                 "validation": [m.as_dict(True) for m in fit.validation]}
@@ -133,17 +134,23 @@ def _header_lines(r: Identification) -> list[str]:
     return lines
 
 
+def error_table_lines(columns: list[str], rows: dict[str, list[str]]) -> list[str]:
+    """The report's "Error before and after" section heading and table (both paths): a row a
+    model (baseline, final), a column a measured channel or held-out record."""
+    lines = ["", "## Error before and after", "",
+             "| model | " + " | ".join(columns) + " |", "|---|" + "---|" * len(columns)]
+    lines += [f"| {label} | " + " | ".join(cells) + " |" for label, cells in rows.items()]
+    return lines
+
+
 def _error_lines(r: Identification, informed) -> list[str]:
     """The error table, baseline and final, training and held out."""
     record = r.train
     lines: list[str] = []
-    lines += ["", "## Error before and after", "",
-              "| model | " + " | ".join(["training"] + [f"held-out `{v.name}`"
-                                                   for v in r.validation]) + " |",
-              "|---|" + "---|" * (1 + len(r.validation))]
-    for label, fit in (("baseline", r.baseline), ("final", r.final)):
-        cells = [_metric_cell(fit.train)] + [_metric_cell(m) for m in fit.validation]
-        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    lines += error_table_lines(
+        ["training"] + [f"held-out `{v.name}`" for v in r.validation],
+        {label: [_metric_cell(fit.train)] + [_metric_cell(m) for m in fit.validation]
+         for label, fit in (("baseline", r.baseline), ("final", r.final))})
     lines += ["", "Cells: RMSE (relative error 100 ||y - y_hat|| / ||y||) of the measured "
               f"{record.target} force.", ""]
     lines += informed.outlier_lines({f"{record.target}_force_N": "N"})

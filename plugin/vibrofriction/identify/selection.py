@@ -61,6 +61,9 @@ ProgressFn = Callable[[str], None]
 
 @dataclass(frozen=True, eq=False)
 class Candidate:
+    """One effect's evaluation in a round of the inverse path: its fit, dBIC and the other
+    tests' numbers, the verdict and why."""
+
     effect: str
     fit: FitResult
     delta_bic: float
@@ -78,6 +81,9 @@ class Candidate:
 
 @dataclass(frozen=True, eq=False)
 class Identification:
+    """The inverse path's result: the law, the effects declared and selected, the records, the
+    baseline and final fits, every candidate by round, and what was not a candidate and why."""
+
     law: str
     declared: tuple[str, ...]
     train: Record

@@ -216,6 +216,9 @@ class SimFit:
 
 @dataclass(frozen=True, eq=False)
 class SimCandidate:
+    """One effect's evaluation in a round of the simulation path: its fit (or, screened out,
+    the round's model), dBIC, the linearized screen's dBIC, the verdict and why."""
+
     effect: str
     fit: SimFit
     delta_bic: float
@@ -235,6 +238,9 @@ class SimCandidate:
 
 @dataclass(frozen=True, eq=False)
 class SimIdentification:
+    """The simulation path's result: the law, the effects declared and selected, the
+    replays, the baseline and final fits, every candidate by round, and the settings used."""
+
     law: str
     declared: tuple[str, ...]
     train: RigReplay

@@ -19,7 +19,7 @@ from .identifiability import simulation_diagnostics
 from . import residual_diagnostics
 from .model import (MAP_EFFECTS, effect_fields, own_map_effects, own_parameter_names,
                     simulation_effects)
-from .report import write_folder
+from .report import error_table_lines, write_folder
 from .series import listing as series_listing, simulation_series, write_series
 from .simulation import MIN_SLIPS, SimFit, SimIdentification
 
@@ -57,6 +57,7 @@ def _case(result: SimIdentification, fit: SimFit) -> tuple[RigParameters, Any]:
 
 
 def report_json(result: SimIdentification) -> dict[str, Any]:
+    """report.json of the simulation path (schema: docs/interfaces.md)."""
     def block(fit: SimFit) -> dict[str, Any]:
         return {"parameters": parameters(result, fit), "train": fit.train.as_dict(False),
                 "validation": [m.as_dict(True) for m in fit.validation],
@@ -256,14 +257,11 @@ def _method_lines(r: SimIdentification, diagnosis) -> list[str]:
 def _error_lines(r: SimIdentification) -> list[str]:
     """Each channel's error, and each held-out record's, before and after the selection."""
     replay = r.train
-    lines = ["", "## Error before and after", "",
-             "| model | " + " | ".join(f"{c} relerr" for c in replay.channels) +
-             "".join(f" | held-out `{v.name}`" for v in r.validation) + " |",
-             "|---|" + "---|" * (len(replay.channels) + len(r.validation))]
-    for label, fit in (("baseline", r.baseline), ("final", r.final)):
-        cells = [f"{fit.channels[c].relerr_pct:.4g} %" for c in replay.channels]
-        cells += [f"{m.relerr_pct:.4g} %" for m in fit.validation]
-        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    lines = error_table_lines(
+        [f"{c} relerr" for c in replay.channels] + [f"held-out `{v.name}`" for v in r.validation],
+        {label: [f"{fit.channels[c].relerr_pct:.4g} %" for c in replay.channels] +
+         [f"{m.relerr_pct:.4g} %" for m in fit.validation]
+         for label, fit in (("baseline", r.baseline), ("final", r.final))})
     lines += ["", "relerr = 100 ||y - y_sim|| / ||y|| of each measured channel; held-out "
               f"columns are of {r.primary}.", ""]
     return lines
@@ -380,6 +378,8 @@ def _closed_loop_section(r: SimIdentification) -> list[str]:
 
 
 def write_report(result: SimIdentification, out_dir, *, figures: bool = True) -> Path:
+    """Write report.json, report.md, the series (and figures; a machine's fitted scene) to
+    ``out_dir``, all or nothing; returns the folder."""
     def write(tmp: Path) -> None:
         (tmp / "report.json").write_text(json_text(report_json(result)))
         (tmp / "report.md").write_text(report_markdown(result))

@@ -19,6 +19,9 @@ from ..vocabulary import ALL_LAWS, FRICTION_TERMS
 
 @dataclass(frozen=True)
 class LawRun:
+    """What ``run_law`` returns: per sample, the friction force (N) and the deflection z (m);
+    for law gms also each element's deflection, shape (samples, elements)."""
+
     friction_force_N: np.ndarray
     # z; law gms: the one deflection with the elements' force, sum k_i z_i / sum k_i (as the
     # element's sensor reports it)
@@ -27,6 +30,21 @@ class LawRun:
 
 
 def c_law_parameters(friction: FrictionParameters, normal_force_N: float) -> LawParameters:
+    """The C API's parameter struct for a friction law.
+
+    Parameters
+    ----------
+    friction : FrictionParameters
+        The law and its parameters (SI units); the list-valued ones (gms elements, level maps)
+        go in ``LawLists`` instead.
+    normal_force_N : float
+        Constant normal force (N); 0 where the C call gets a normal force per sample.
+
+    Returns
+    -------
+    LawParameters
+        The struct, with the law as its index in ``ALL_LAWS``.
+    """
     return LawParameters(
         law=ALL_LAWS.index(friction.law),
         normal_force=normal_force_N,
@@ -35,6 +53,27 @@ def c_law_parameters(friction: FrictionParameters, normal_force_N: float) -> Law
 
 
 def c_array(values, n: int, name: str) -> np.ndarray:
+    """A contiguous float64 copy (or view) of ``values`` to pass to the C API, checked.
+
+    Parameters
+    ----------
+    values : array_like
+        The samples.
+    n : int
+        The number of samples expected: the array must have shape ``(n,)``.
+    name : str
+        The argument's name, for the error message.
+
+    Returns
+    -------
+    numpy.ndarray
+        C-contiguous float64 array of shape ``(n,)``.
+
+    Raises
+    ------
+    ParameterError
+        For another shape, or a NaN or inf (the first one's index is named).
+    """
     array = np.ascontiguousarray(values, dtype=np.float64)
     if array.shape != (n,):
         raise ParameterError(f"{name} has shape {array.shape}, expected ({n},)")

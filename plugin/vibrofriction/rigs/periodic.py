@@ -518,6 +518,8 @@ def guess_force_N(rig: RigParameters, friction: FrictionParameters) -> float:
 
 
 def is_vibrating(rig: RigParameters) -> bool:
+    """Whether the rig's table vibrates at all: a frequency (Hz) and a velocity amplitude (m/s)
+    both above 0."""
     return rig.vibration_frequency_Hz > 0 and rig.vibration_velocity_amplitude_m_per_s > 0
 
 

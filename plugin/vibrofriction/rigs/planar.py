@@ -70,6 +70,9 @@ def planar_config(friction: FrictionParameters, *, normal_force_N: float | None 
 
 @dataclass(frozen=True)
 class PlanarLawRun:
+    """What ``run_planar_law`` returns: per sample, the friction force (N) and the deflection z
+    (m), each as (x, y) columns, shape (n, 2)."""
+
     force_N: np.ndarray        # (n, 2) friction force against the motion
     deflection_m: np.ndarray   # (n, 2) deflection z
 
@@ -279,6 +282,28 @@ def simulate_rigs(cases: Sequence[tuple[RigParameters, FrictionParameters, float
 def simulate_rig(rig: RigParameters, friction: FrictionParameters, *,
                  vibration_angle_rad: float = 0.0, drive_angle_rad: float = 0.0,
                  **kwargs) -> PlanarRigRun:
+    """Run one planar rig: ``simulate_rigs`` for a single case.
+
+    Parameters
+    ----------
+    rig : RigParameters
+        The rig (SI units); it vibrates from the start and has no drive backlash.
+    friction : FrictionParameters
+        The planar friction law (no 1D-only effects: ``check_planar``).
+    vibration_angle_rad : float
+        Direction of the table's vibration, from the x axis (rad).
+    drive_angle_rad : float
+        Direction of the drive, from the x axis (rad).
+    **kwargs
+        ``duration_s``, ``timestep_s`` (default 1e-5 s), ``settle_time_s``, ``nthread`` and
+        ``averaged_config``, as in ``simulate_rigs`` (the duration and the settle time (s)
+        default to ``default_times(rig, friction)``).
+
+    Returns
+    -------
+    PlanarRigRun
+        The run's time series.
+    """
     return simulate_rigs([(rig, friction, vibration_angle_rad, drive_angle_rad)], **kwargs)[0]
 
 

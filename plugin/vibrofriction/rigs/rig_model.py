@@ -104,6 +104,29 @@ def build_spec(rig: RigParameters, friction: FrictionParameters,
 
 def build_model(rig: RigParameters, friction: FrictionParameters,
                 timestep_s: float = DEFAULT_TIMESTEP_S) -> mujoco.MjModel:
+    """The compiled rig model for ``friction.law`` with every parameter applied
+    (``build_spec(...).compile()``).
+
+    Parameters
+    ----------
+    rig : RigParameters
+        The rig (SI units).
+    friction : FrictionParameters
+        The friction law and its parameters (SI units).
+    timestep_s : float
+        MuJoCo timestep (s); default 1e-5 s.
+
+    Returns
+    -------
+    mujoco.MjModel
+        The model of the law's rig scene (``mjcf_models/rig/scene_<law>.xml``).
+
+    Raises
+    ------
+    ParameterError
+        For invalid parameters, a timestep that is not a positive number, or a law without
+        a rig scene.
+    """
     return build_spec(rig, friction, timestep_s).compile()
 
 

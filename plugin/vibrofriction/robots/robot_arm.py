@@ -83,11 +83,17 @@ def jaco_model_dir() -> Path:
 
 @lru_cache(maxsize=1)
 def cell_feeder_map() -> FeederMap:
+    """The map of the cell's vibratory feeder (CELL_FEEDER), which its parts'
+    vibrofriction.contact_feeder elements use in mode robot with vibration; made once
+    (reference runs), then cached."""
     return build_map(CELL_FEEDER)
 
 
 @lru_cache(maxsize=1)
 def cell_plate_table() -> AveragedTable:
+    """The averaged law of the plate part (CELL_PLATE_FRICTION under CELL_PLATE_VIBRATION) at
+    its normal load on the tilted plate, m g cos(tilt) (N), for its vibrofriction.contact_averaged
+    element in mode robot; made once, then cached."""
     load_N = CELL_PART_MASS_KG * GRAVITY_M_PER_S2 * math.cos(CELL_PLATE_TILT_RAD)
     return build_table(CELL_PLATE_FRICTION, CELL_PLATE_VIBRATION, load_N)
 
@@ -242,6 +248,9 @@ def build_model(mode: str = "robot", vibration: bool = True) -> mujoco.MjModel:
 
 @dataclass(frozen=True)
 class Waypoint:
+    """One waypoint of the arm's plan: at ``time_s`` (s) the grip site at ``grip_position_m``
+    (world frame, m), the fingers' joint target (rad) and the hand's pitch about y (rad)."""
+
     time_s: float
     grip_position_m: tuple[float, float, float]
     fingers: float         # finger joint target (rad)

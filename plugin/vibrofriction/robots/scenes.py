@@ -65,12 +65,31 @@ SCENES = {
 
 
 def scene_path(name: str) -> Path:
+    """The MJCF file of the robot scene ``name`` (a key of ``SCENES``); ParameterError for
+    another name."""
     if name not in SCENES:
         raise ParameterError(f"unknown robot scene {name!r}; use one of {', '.join(SCENES)}")
     return SCENES[name]
 
 
 def load_model(name: str) -> mujoco.MjModel:
+    """Load a bundled robot scene, the plugins registered first.
+
+    Parameters
+    ----------
+    name : str
+        The scene: a key of ``SCENES`` (e.g. ``plate_push_resolved``, ``feeder``).
+
+    Returns
+    -------
+    mujoco.MjModel
+        The compiled scene, with the timestep its MJCF sets.
+
+    Raises
+    ------
+    ParameterError
+        For an unknown scene name.
+    """
     load()
     return mujoco.MjModel.from_xml_path(str(scene_path(name)))
 
@@ -285,6 +304,25 @@ def push_controls(model: mujoco.MjModel, plan: PushPlan, nstep: int,
 
 def initial_state(model: mujoco.MjModel, ctrl0: np.ndarray | None = None,
                   qpos: dict[str, float] | None = None) -> np.ndarray:
+    """The model's reset state with the given joint positions and controls, after
+    ``mj_forward``: the state a rollout (``run_scene``) starts from.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+        The scene.
+    ctrl0 : numpy.ndarray, optional
+        Controls (nu,) at the start, e.g. the first row of the control sequence; default the
+        reset's.
+    qpos : dict of str to float, optional
+        Joint name -> position (rad or m) of a joint's first qpos entry; other joints keep
+        the reset's.
+
+    Returns
+    -------
+    numpy.ndarray
+        The full physics state (mjSTATE_FULLPHYSICS, as mujoco.rollout takes it).
+    """
     data = mujoco.MjData(model)
     mujoco.mj_resetData(model, data)
     for name, value in (qpos or {}).items():
@@ -426,6 +464,30 @@ def make_renderer(model: mujoco.MjModel, height: int = 240, width: int = 320):
 
 def render_frames(run: SceneRun, times_s, *, camera: str = "overview", height: int = 240,
                   width: int = 320) -> list[np.ndarray]:
+    """Render a run offscreen at the given times.
+
+    Parameters
+    ----------
+    run : SceneRun
+        The run; each frame shows its state after the step ending at that time
+        (``SceneRun.state_at``).
+    times_s : iterable of float
+        The times of the frames (s).
+    camera : str
+        The name of the model's camera to render from.
+    height, width : int
+        Frame size (pixels).
+
+    Returns
+    -------
+    list of numpy.ndarray
+        One RGB image (height x width x 3, uint8) per time.
+
+    Raises
+    ------
+    RenderingUnavailable
+        When no offscreen OpenGL context can be made (set MUJOCO_GL to egl or osmesa).
+    """
     renderer = make_renderer(run.model, height, width)
     data = mujoco.MjData(run.model)
     kind = mujoco.mjtState.mjSTATE_FULLPHYSICS

@@ -113,12 +113,31 @@ def unavailable_variants() -> dict[str, str]:
 
 
 def available_variants(names: Sequence[str]) -> tuple[str, ...]:
+    """Those of ``names`` that the installed MuJoCo can build (``unavailable_variants`` left
+    out), in their order."""
     missing = unavailable_variants()
     return tuple(n for n in names if n not in missing)
 
 
 def variant_friction(variant: Variant, rig: RigParameters, config: StudyConfig
                      ) -> FrictionParameters:
+    """The friction parameters whose numbers a variant takes.
+
+    Parameters
+    ----------
+    variant : Variant
+        The variant; its ``law`` names the plugin law whose parameters it uses.
+    rig : RigParameters
+        The rig (SI units); LuGre's default bristle damping follows its mass.
+    config : StudyConfig
+        The study, whose ``friction_for`` gives the law's parameters.
+
+    Returns
+    -------
+    FrictionParameters
+        The study's parameters of the law; for Dupont with ``breakaway_ratio`` 0.99
+        (``JENKINS_BREAKAWAY_RATIO``: the closest the plugin allows to the Jenkins element).
+    """
     friction = config.friction_for(variant.law, rig)
     if variant.law == "dupont":
         friction = replace(friction, breakaway_ratio=JENKINS_BREAKAWAY_RATIO).validate()
@@ -196,6 +215,10 @@ def _add_contact(spec: mujoco.MjSpec, rig: RigParameters, mu: float, *, tight: b
 
 @dataclass(frozen=True)
 class VariantRun:
+    """One run of a variant: its rig, timestep (s), wall and CPU time (s; NaN where runs
+    shared a rollout), the summary, and with ``keep_periods`` the last periods' friction
+    force (N) over time (s, from 0), else None."""
+
     variant: str
     rig: RigParameters
     timestep_s: float
@@ -298,6 +321,10 @@ class ComparisonConfig:
 
 @dataclass(frozen=True)
 class LadderResult:
+    """One run of the timestep ladder: the variant at kappa_v, N steps per vibration period
+    (dt = T/(N + 0.382), in s), its single-thread wall and CPU time (s) and the mean drive
+    force (N)."""
+
     variant: str
     kappa: float
     steps: int
@@ -335,6 +362,11 @@ class VariantSummary:
 
 @dataclass(frozen=True)
 class Comparison:
+    """The result of ``compare``: the timestep ladder, the master-curve runs, each variant's
+    static mean drive force (N), the traces at the operating points, the table rows, the
+    vibration frequency (Hz), the simulated time of a run (s) and, where run, the costs of the
+    converged master curve (``converged_curve_costs``)."""
+
     config: ComparisonConfig
     ladder: list[LadderResult]
     master: list[VariantRun]
@@ -490,6 +522,24 @@ VARIANT_STYLE = {
 
 
 def plot_comparison(result: Comparison, path: Path) -> Path:
+    """Plot the comparison in four panels and save it.
+
+    The panels: (a) the master curves, (b) and (c) the friction force over two periods at the
+    two operating points, (d) the error of the mean drive force against the target plugin law
+    over the timestep ladder.
+
+    Parameters
+    ----------
+    result : Comparison
+        What ``compare`` returned.
+    path : Path
+        The image file to write (its folder is made).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     fig = new_figure(9.0, 6.4)
     grid = fig.subplots(2, 2)
     ax = grid[0, 0]
@@ -591,6 +641,21 @@ def comparison_table(result: Comparison) -> str:
 
 
 def write_comparison(result: Comparison, out: Path) -> dict[str, Path]:
+    """Write the comparison's figure, CSV tables and markdown report to a folder.
+
+    Parameters
+    ----------
+    result : Comparison
+        What ``compare`` returned.
+    out : Path
+        The folder: builtin_comparison.png, builtin_table.csv, builtin_timestep_ladder.csv,
+        builtin_master.csv, builtin_traces.csv and builtin.md go in it.
+
+    Returns
+    -------
+    dict of str to Path
+        Each file by its key: png, table_csv, ladder_csv, master_csv, traces_csv, md.
+    """
     out = Path(out)
     paths = {}
     paths["png"] = plot_comparison(result, out / "builtin_comparison.png")
@@ -619,6 +684,8 @@ def write_comparison(result: Comparison, out: Path) -> dict[str, Path]:
 
 
 def comparison_markdown(result: Comparison) -> str:
+    """The text of builtin.md: what was compared and how, the comparison table and, where
+    run, the costs of the converged master curve."""
     c = result.config
     f = result.frequency_Hz
     ladder = ", ".join(f"{period_timestep(f, n) * 1e6:.3g}" for n in c.ladder_steps)

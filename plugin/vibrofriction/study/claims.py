@@ -56,6 +56,10 @@ class StudyResults:
 
 @dataclass(frozen=True)
 class Claim:
+    """One of the paper's claims as this run checked it: its id, the claim in the paper's words
+    (with the section), what was computed, one line with the numbers, the numbers themselves,
+    the verdict ``holds`` ("yes", "no" or "partly") and a note explaining deviations."""
+
     id: str
     paper: str
     definition: str
@@ -138,6 +142,10 @@ def _oracle_check(results: StudyResults, worst_below: float) -> dict[str, Any] |
 
 
 def claim_no_reduction(results: StudyResults) -> Claim:
+    """Claim 1: no reduction of the drive force when v_a <= v_d. Holds ("yes") when no
+    |1 - F_dv/F_ds| at kappa_v < 1 or = 1 (paper rig, Fig. 14 configuration, grid sweep)
+    exceeds NO_REDUCTION_TOLERANCE, "partly" when the paper rig's below kappa_v = 1 do not;
+    the note explains the deviations (contact resonance, the boundary v_a = v_d)."""
     values = _no_reduction_values(results)
     holds_equal, holds = _no_reduction_verdict(values)
     kappas = sorted({p.kappa for p in results.master if p.kappa <= 1.0 + 1e-9})
@@ -286,6 +294,10 @@ def _no_reduction_notes(values: dict[str, Any], holds_equal: bool,
 
 
 def claim_reduction_without_sign_change(results: StudyResults) -> Claim:
+    """Claim 2: the drive force is reduced without a sign change of F_F at small kappa_v > 1.
+    Holds when Dahl at v_a = 0.75 mm/s (kappa_v = 1.5) has F_dv/F_ds below
+    REDUCTION_THRESHOLD with F_F > 0 throughout; also per law the lowest ratio without a
+    sign change on the master grid."""
     tr = results.traces[("dahl", 0.75 * MM_PER_S)]
     per_law = {}
     for law in LAWS:
@@ -324,6 +336,9 @@ def claim_reduction_without_sign_change(results: StudyResults) -> Claim:
 
 
 def claim_sign_change(results: StudyResults) -> Claim:
+    """Claim 3: F_F changes sign at large kappa_v. Holds when Dahl's F_F at v_a = 3 mm/s
+    (kappa_v = 6) goes below 0 and every law changes sign at the largest kappa_v of the master
+    grid; also per law the kappa_v interval where the sign change sets in."""
     tr = results.traces[("dahl", 3.0 * MM_PER_S)]
     onset = {}
     for law in LAWS:
@@ -356,6 +371,9 @@ def claim_sign_change(results: StudyResults) -> Claim:
 
 
 def claim_twenty_fold(results: StudyResults) -> Claim:
+    """Claim 4: more than a 20-fold reduction of the drive force at high kappa_v. Holds when
+    Dahl's master curve falls to F_dv/F_ds = 1/20 (log-log interpolated); per law that
+    kappa_v and the reduction at the largest kappa_v computed."""
     per_law = {}
     for law in LAWS:
         pts = curve(results.master, law)
@@ -381,6 +399,9 @@ def claim_twenty_fold(results: StudyResults) -> Claim:
 
 
 def claim_wrong_stiffness(results: StudyResults) -> Claim:
+    """Claim 5: a wrong contact stiffness k_t gives errors above 100 %. The error of Dahl's
+    mean drive force with each other k_t of the stiffness study against the true k_t, over
+    its kappa_v grid; holds when the largest |error| exceeds 100 %."""
     st = results.stiffness
     true_kt = st.true_stiffness_N_per_m
     errors = []
@@ -422,6 +443,10 @@ def claim_wrong_stiffness(results: StudyResults) -> Claim:
 
 
 def claim_laws_differ(results: StudyResults) -> Claim:
+    """Claim 6: the four laws give different results for v_a > v_d. F_dv/F_ds per law at
+    COMPARE_KAPPAS and in the Fig. 13 configuration; holds when the spread over the laws at
+    kappa_v = 1.5 exceeds 0.05. (Whether Dahl agrees best with the experiments cannot be
+    checked: their data are not available.)"""
     table = {}
     for law in LAWS:
         table[law] = {}
@@ -481,6 +506,9 @@ def claim_laws_differ(results: StudyResults) -> Claim:
 
 
 def normal_force_choice(results: StudyResults) -> dict[str, Any]:
+    """How much the choice of normal force changes Dahl's F_dv/F_ds in the Fig. 13
+    configuration: per v_a (the key, in mm/s) the ratio with F_N = p S, with F_N = F_e + m g,
+    and their difference."""
     out = {}
     for main in results.fig13.traces:
         if main.friction.law != "dahl":
@@ -495,6 +523,8 @@ def normal_force_choice(results: StudyResults) -> dict[str, Any]:
 
 
 def all_claims(results: StudyResults) -> list[Claim]:
+    """The six claims, in the paper's order (the module docstring lists them), checked on
+    ``results``."""
     return [claim_no_reduction(results), claim_reduction_without_sign_change(results),
             claim_sign_change(results), claim_twenty_fold(results),
             claim_wrong_stiffness(results), claim_laws_differ(results)]
@@ -534,6 +564,22 @@ def _choices(results: StudyResults) -> list[str]:
 
 
 def summary_json(results: StudyResults, claims: Sequence[Claim]) -> dict[str, Any]:
+    """The content of claims.json (before ``json_ready`` and the version stamp).
+
+    Parameters
+    ----------
+    results : StudyResults
+        What the reproduction computed.
+    claims : sequence of Claim
+        The claims checked on it (``all_claims``).
+
+    Returns
+    -------
+    dict
+        The command, the mode (quick or full), the versions, the wall time (s), the claims,
+        the study's choices, the values the paper does not give, the normal-force choice,
+        the convergence of the runs and the grid sweep's summary (None without a sweep).
+    """
     return {
         "command": results.command,
         "mode": "quick" if results.config.quick else "full",
@@ -592,6 +638,23 @@ def _yes(h: str) -> str:
 
 
 def summary_markdown(results: StudyResults, claims: Sequence[Claim]) -> str:
+    """The text of summary.md.
+
+    Parameters
+    ----------
+    results : StudyResults
+        What the reproduction computed.
+    claims : sequence of Claim
+        The claims checked on it (``all_claims``); the one with id ``laws_differ`` must be
+        among them (its ratios make the table of the laws).
+
+    Returns
+    -------
+    str
+        Markdown: the convergence line, the claims table with definitions and notes, how the
+        laws differ, the values the paper does not give, the study's choices and, where
+        present, the grid sweep and the list of files.
+    """
     c = results.config
     lines = [
         "# Gutowski & Leus (2012) reproduced: results summary",
@@ -648,6 +711,20 @@ def summary_markdown(results: StudyResults, claims: Sequence[Claim]) -> str:
 
 
 def write_summary(results: StudyResults, out: Path) -> list[Claim]:
+    """Check every claim and write claims.json and summary.md.
+
+    Parameters
+    ----------
+    results : StudyResults
+        What the reproduction computed.
+    out : Path
+        The folder to write to (it must exist).
+
+    Returns
+    -------
+    list of Claim
+        The claims (``all_claims``).
+    """
     claims = all_claims(results)
     out = Path(out)
     text = json.dumps(stamped(json_ready(summary_json(results, claims))), indent=2,

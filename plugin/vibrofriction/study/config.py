@@ -191,6 +191,8 @@ class StudyConfig:
 
 
 def contact_resonance_Hz(contact_stiffness_N_per_m: float, mass_kg: float) -> float:
+    """The slider-on-contact resonance sqrt(k_t/m)/(2 pi) (Hz) of a contact stiffness k_t
+    (N/m) and a mass m (kg)."""
     return math.sqrt(contact_stiffness_N_per_m / mass_kg) / (2 * math.pi)
 
 

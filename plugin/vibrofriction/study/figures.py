@@ -223,6 +223,27 @@ def compute_time_traces(config: StudyConfig, progress: Progress | None = None
 
 def plot_time_traces(traces: dict[tuple[str, float], Trace], va: float, number: int,
                      path: Path) -> Path:
+    """Plot one of Figs. 7-9 and save it: Dahl (left) and Coulomb (right) at one v_a, with the
+    slider position (um), the velocities v_A, v_d, v_v, v_r (mm/s) and the friction force F_F
+    (N) over time (us).
+
+    Parameters
+    ----------
+    traces : dict of (str, float) to Trace
+        The traces keyed (law, v_a in m/s), as ``compute_time_traces`` returns them; those of
+        dahl and coulomb at ``va`` are drawn.
+    va : float
+        The vibration velocity amplitude v_a (m/s).
+    number : int
+        The paper's figure number, for the title.
+    path : Path
+        The image file to write (its folder is made).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     fig = new_figure(7.2, 5.6)
     axes = fig.subplots(3, 2, sharex=True)
     for col, law in enumerate(("dahl", "coulomb")):
@@ -347,6 +368,9 @@ def fig_profiles(config: StudyConfig, out: Path, progress: Progress | None = Non
 # ----------------------------------------------------------------------------- Fig. 12
 @dataclass(frozen=True)
 class StiffnessStudy:
+    """The Fig. 12 study (Dahl): the F_F profiles at v_a = 0.75 mm/s and the master-curve
+    points, one set per contact stiffness, and the true (the study's) k_t (N/m)."""
+
     profiles: list[Trace]
     points: list[MasterPoint]
     true_stiffness_N_per_m: float
@@ -397,12 +421,30 @@ def fig_stiffness(config: StudyConfig, out: Path, progress: Progress | None = No
 # ----------------------------------------------------------------------------- Figs. 13-14
 @dataclass(frozen=True)
 class ExperimentTraces:
+    """The Fig. 13 analogue's traces: every law at each v_a of the experiment with F_N = p S,
+    and Dahl with F_N = F_e + m g (the alternative normal force)."""
+
     traces: list[Trace]
     # Dahl with F_N = F_e + m g instead of p S, same v_a order as the experiment's.
     alternative_normal_force: list[Trace]
 
 
 def experiment_base(config: StudyConfig, experiment: ExperimentConfig) -> RigParameters:
+    """The rig of an experimental configuration without vibration (v_a = 0).
+
+    Parameters
+    ----------
+    config : StudyConfig
+        The study; its ``rig`` gives every value the experiment does not set.
+    experiment : ExperimentConfig
+        The configuration (Fig. 13 or 14): its mass, vibration frequency, drive velocity
+        and normal force F_N = p S.
+
+    Returns
+    -------
+    RigParameters
+        The rig, validated.
+    """
     return experiment.rig(0.0, base=config.rig)
 
 

@@ -23,6 +23,7 @@ def new_figure(width_in: float = 6.4, height_in: float = 4.0):
 
 
 def save_figure(fig, path: Path) -> Path:
+    """Save a matplotlib figure to ``path`` at FIGURE_DPI, making its folder; return the path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=FIGURE_DPI)
@@ -61,6 +62,8 @@ def _fmt(value: object) -> object:
 
 
 def read_csv(path: Path) -> list[dict[str, str]]:
+    """The rows of a CSV file with a header row, as dicts of strings (the reverse of
+    ``write_csv``, without converting the values)."""
     with Path(path).open(newline="") as fh:
         return list(csv.DictReader(fh))
 

@@ -39,6 +39,8 @@ def kinematic_ratios(friction: FrictionParameters, rig: RigParameters,
 
 
 def have_analytic() -> bool:
+    """Whether ``vibrofriction.oracle.analytic`` is importable (the closed-form overlays need
+    it)."""
     return _analytic is not None
 
 

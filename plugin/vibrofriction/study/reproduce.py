@@ -17,6 +17,21 @@ DEFAULT_OUT = Path("vibrofriction-results")
 
 
 def study_config(quick: bool, **changes: Any) -> StudyConfig:
+    """The study's configuration, quick or full, with fields replaced.
+
+    Parameters
+    ----------
+    quick : bool
+        ``StudyConfig.quick_config()`` (small grids) instead of ``StudyConfig.full()``.
+    **changes
+        ``StudyConfig`` fields to replace, e.g. ``rig``, ``friction``, ``timestep_s`` (s),
+        ``method``.
+
+    Returns
+    -------
+    StudyConfig
+        The configuration.
+    """
     config = StudyConfig.quick_config() if quick else StudyConfig.full()
     return replace(config, **changes) if changes else config
 
@@ -89,6 +104,9 @@ def reproduce(out: Path = DEFAULT_OUT, *, config: StudyConfig | None = None,
 
 
 def comparison_json(result: builtin.Comparison) -> dict[str, Any]:
+    """The content of builtin.json: the comparison's settings, each variant's static drive
+    force (N), the variants not run, each variant's row (ratios, errors, timesteps in s, wall
+    and CPU times in s, None where not measured) and the converged-curve costs."""
     def clean(v):
         return None if v is None or v != v else v
     return {

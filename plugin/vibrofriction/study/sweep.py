@@ -47,6 +47,10 @@ class SweepGrid:
 
 @dataclass(frozen=True)
 class SweepRecord:
+    """One point of the grid sweep: its kappa_v and parameters, the mean drive force with and
+    without vibration, the mean, minimum and maximum friction force (all forces in N), whether
+    F_F changes sign, and the convergence (``estimated_remaining_error``: relative)."""
+
     kappa: float
     vibration_velocity_amplitude_m_per_s: float
     vibration_frequency_Hz: float
@@ -75,6 +79,9 @@ class SweepRecord:
 
 @dataclass(frozen=True)
 class SweepResult:
+    """A grid sweep: the grid, one record per vibrating case (``grid_cases`` order), the engine
+    that ran it (local rollout threads or Dask) and the wall time of its runs (s)."""
+
     grid: SweepGrid
     records: list[SweepRecord]
     engine: str
