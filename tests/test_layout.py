@@ -286,3 +286,12 @@ def test_every_module_and_public_name_says_what_it_is() -> None:
                     if isinstance(node, (ast.FunctionDef, ast.ClassDef))
                     and not node.name.startswith("_") and not ast.get_docstring(node)]
     assert missing == []
+
+
+def test_each_package_map_names_its_modules() -> None:
+    """A package's ``__init__`` says what each of its modules holds (docs/DEVELOPING.md)."""
+    for init in sorted(PACKAGE.glob("*/__init__.py")):
+        doc = ast.get_docstring(ast.parse(init.read_text())) or ""
+        named = set(re.findall(r"\b(\w+)(?:\.py)?\b", doc))
+        modules = {p.stem for p in init.parent.glob("*.py") if p.name != "__init__.py"}
+        assert modules <= named, (init.parent.name, sorted(modules - named))

@@ -9,6 +9,9 @@ built-in friction beside the plugin.
   builtin.py .... frictionloss, contact, dcmotor LuGre, springyield vs the plugin
   sweep.py ...... grids over v_a x f x k_t x F_N, local or on a Dask cluster
   reproduce.py .. everything in one call (``vibrofriction reproduce``)
+  output.py ..... writing CSV tables and PNG figures, progress lines
+  readme.py ..... docs/study.md and its figures from a reproduce folder
+  scripts.py .... what every scripts/fig_*.py shares (arguments, backend, config)
 
 Figures are drawn on matplotlib ``Figure`` objects (Agg canvas), never through pyplot.
 """
