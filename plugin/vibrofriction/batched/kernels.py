@@ -577,6 +577,79 @@ def rows_kernel(
         rows[base + 2, world, i] = rho * wp.dot(normal, wp.vec3(c[3], c[4], c[5]))
 
 
+@wp.func
+def response_matrix(el: Elements, e: int, world: int, rows: wp.array3d(dtype=float),
+                    solved: wp.array3d(dtype=float), dt: float):
+    """B = dt J M^-1 J' on the element's chain dofs (3 x 3: the contact frame's two tangents
+    and the spin), from J's rows and M^-1 J' (this element's colour's)."""
+    base = 3 * el.color[e]
+    B = wp.mat33(0.0)
+    for r in range(3):
+        for cc in range(3):
+            s = float(0.0)
+            for k in range(el.chain_num[e]):
+                i = el.chain_dof[el.chain_adr[e] + k]
+                s += rows[base + r, world, i] * solved[base + cc, world, i]
+            B[r, cc] = dt * s
+    return B
+
+
+@wp.func
+def element_force(el: Elements, tables: Tables, e: int, world: int, load: float, rho: float,
+                  point: wp.vec3, t1: wp.vec3, t2: wp.vec3, B: wp.mat33, v: wp.vec3,
+                  v_free: wp.vec3, xpos: wp.array2d(dtype=wp.vec3),
+                  xmat: wp.array2d(dtype=wp.mat33)):
+    """The element's friction (tangent 1, tangent 2, spin moment / rho; N) from its law: the
+    feeder map (contact_feeder), the averaged table under vibration (contact_averaged), else
+    rigid Coulomb with stick (with torsion where rho > 0)."""
+    mu = el.mu[world, e]
+    viscous = el.viscous[world, e]
+    static_ratio = el.static_ratio[world, e]
+    stribeck = el.stribeck_velocity[world, e]
+    config_va = el.velocity_amplitude[world, e]
+    feeder = el.feeder[e]
+    va = float(0.0)
+    if feeder == 0:
+        va = config_va
+    axis3 = wp.vec3(0.0)
+    in_plane = float(0.0)
+    if feeder == 1 or va > 0.0:
+        axis = xmat[world, el.support[e]] @ el.axis[world, e]
+        pitch = el.helix_pitch[world, e]
+        if pitch != 0.0:
+            axis = helix_tangent(xpos[world, el.support[e]], xmat[world, el.support[e]], point,
+                                 pitch)
+        axis3 = wp.vec3(wp.dot(axis, t1), wp.dot(axis, t2), 0.0)
+        in_plane = wp.sqrt(axis3[0] * axis3[0] + axis3[1] * axis3[1])
+        va *= in_plane
+        if in_plane > 0.0:
+            axis3 = wp.vec3(axis3[0] / in_plane, axis3[1] / in_plane, 0.0)
+    vibrating = va > 1e-9 * config_va
+    spin = int(0)
+    if rho > 0.0:
+        spin = 1
+    level = mu * load
+    f3 = wp.vec3(0.0)
+    if feeder == 1 and in_plane > 1e-6:
+        R = wp.mat33(axis3[0], axis3[1], 0.0, -axis3[1], axis3[0], 0.0, 0.0, 0.0, 1.0)
+        Br = R @ B @ wp.transpose(R)
+        fr = feeder_force(tables, e, mu, stribeck, load, Br, R @ v, R @ v_free, spin)
+        f3 = wp.transpose(R) @ fr
+    elif vibrating:
+        f3 = solve_averaged(tables, e, level, viscous, axis3, va, B, v_free, v)
+    elif spin == 1:
+        f3 = stick_slip(3, level, static_ratio, stribeck, viscous, v, v_free, B)
+    else:
+        B2 = wp.mat33(0.0)
+        B2[0, 0] = B[0, 0]
+        B2[0, 1] = B[0, 1]
+        B2[1, 0] = B[1, 0]
+        B2[1, 1] = B[1, 1]
+        f3 = stick_slip(2, level, static_ratio, stribeck, viscous, v, v_free, B2)
+        f3[2] = 0.0
+    return f3
+
+
 @wp.kernel
 def force_kernel(
     el: Elements,
@@ -623,16 +696,7 @@ def force_kernel(
                          subtree_com)
     t1 = tangent1(normal)
     t2 = wp.cross(normal, t1)
-    # B = dt J M^-1 J' on the chain dofs
-    base = 3 * el.color[e]
-    B = wp.mat33(0.0)
-    for r in range(3):
-        for cc in range(3):
-            s = float(0.0)
-            for k in range(el.chain_num[e]):
-                i = el.chain_dof[el.chain_adr[e] + k]
-                s += rows[base + r, world, i] * solved[base + cc, world, i]
-            B[r, cc] = dt * s
+    B = response_matrix(el, e, world, rows, solved, dt)
     other = wp.vec4(state[world, e, 12], state[world, e, 13], state[world, e, 14],
                     state[world, e, 15])
     ahead = u + dt * other
@@ -642,51 +706,8 @@ def force_kernel(
     a3 = wp.vec3(ahead[0], ahead[1], ahead[2])
     v = wp.vec3(wp.dot(u3, t1), wp.dot(u3, t2), u[3])
     v_free = wp.vec3(wp.dot(a3, t1), wp.dot(a3, t2), ahead[3])
-    mu = el.mu[world, e]
-    viscous = el.viscous[world, e]
-    static_ratio = el.static_ratio[world, e]
-    stribeck = el.stribeck_velocity[world, e]
-    config_va = el.velocity_amplitude[world, e]
-    feeder = el.feeder[e]
-    va = float(0.0)
-    if feeder == 0:
-        va = config_va
-    axis3 = wp.vec3(0.0)
-    in_plane = float(0.0)
-    if feeder == 1 or va > 0.0:
-        axis = xmat[world, el.support[e]] @ el.axis[world, e]
-        pitch = el.helix_pitch[world, e]
-        if pitch != 0.0:
-            axis = helix_tangent(xpos[world, el.support[e]], xmat[world, el.support[e]], point,
-                                 pitch)
-        axis3 = wp.vec3(wp.dot(axis, t1), wp.dot(axis, t2), 0.0)
-        in_plane = wp.sqrt(axis3[0] * axis3[0] + axis3[1] * axis3[1])
-        va *= in_plane
-        if in_plane > 0.0:
-            axis3 = wp.vec3(axis3[0] / in_plane, axis3[1] / in_plane, 0.0)
-    vibrating = va > 1e-9 * config_va
-    spin = int(0)
-    if rho > 0.0:
-        spin = 1
-    level = mu * load
-    f3 = wp.vec3(0.0)
-    if feeder == 1 and in_plane > 1e-6:
-        R = wp.mat33(axis3[0], axis3[1], 0.0, -axis3[1], axis3[0], 0.0, 0.0, 0.0, 1.0)
-        Br = R @ B @ wp.transpose(R)
-        fr = feeder_force(tables, e, mu, stribeck, load, Br, R @ v, R @ v_free, spin)
-        f3 = wp.transpose(R) @ fr
-    elif vibrating:
-        f3 = solve_averaged(tables, e, level, viscous, axis3, va, B, v_free, v)
-    elif spin == 1:
-        f3 = stick_slip(3, level, static_ratio, stribeck, viscous, v, v_free, B)
-    else:
-        B2 = wp.mat33(0.0)
-        B2[0, 0] = B[0, 0]
-        B2[0, 1] = B[0, 1]
-        B2[1, 0] = B[1, 0]
-        B2[1, 1] = B[1, 1]
-        f3 = stick_slip(2, level, static_ratio, stribeck, viscous, v, v_free, B2)
-        f3[2] = 0.0
+    f3 = element_force(el, tables, e, world, load, rho, point, t1, t2, B, v, v_free, xpos,
+                       xmat)
     change = B @ f3
     f = f3[0] * t1 + f3[1] * t2
     resp = change[0] * t1 + change[1] * t2

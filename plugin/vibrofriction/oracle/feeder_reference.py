@@ -172,49 +172,89 @@ def convey(feeder: Feeder, *, push_m_per_s2: float = 0.0, start_phase_rad: float
     `tolerance` x A w cos(beta), or `max_periods` (then `converged` is False); the last
     window's mean is returned. Switching times are bracketed on `samples_per_period` points a
     period."""
-    w, g, mu = feeder.omega, feeder.gravity_m_per_s2, feeder.friction_coefficient
-    b = feeder.throw_angle_rad
     push = float(push_m_per_s2)
+    mu, g = feeder.friction_coefficient, feeder.gravity_m_per_s2
     if not (math.isfinite(push) and abs(push) < mu * g):
         raise ParameterError(f"push_m_per_s2={push_m_per_s2!r} must be finite and below mu g = "
                              f"{mu * g:.6g} m/s^2 in size: a larger push slides the block "
                              "without end")
-    along = feeder.amplitude_m * w * w * math.cos(b)    # the track's acceleration amplitudes,
-    normal = feeder.amplitude_m * w * w * math.sin(b)   # along the track and across it
-    period = 2 * math.pi / w
-    step = period / samples_per_period
-    eps = 1e-9 * period  # past an event, to read which way the motion goes
-    gamma = feeder.throw_number
-    lift_phase = math.asin(1 / gamma) if gamma > 1 else None  # the load turns negative there
+    run = _BlockRun(feeder, push, samples_per_period, max_periods)
+    if not (math.isfinite(start_phase_rad) and 0 <= start_phase_rad < 2 * math.pi):
+        raise ParameterError(f"start_phase_rad={start_phase_rad!r} must be in [0, 2 pi)")
+    run.start(start_phase_rad / feeder.omega, at_rest)
+    period = run.period
+    periods = settle_periods + window_periods
+    previous, converged = None, False
+    while True:
+        run.run_until(periods * period)
+        current = run.window_mean(periods, window_periods)
+        scale = tolerance * feeder.along_velocity_amplitude
+        if previous is not None and abs(current["integral"] - previous["integral"]) <= scale:
+            converged = True
+            break
+        if periods + window_periods > max_periods:
+            break
+        previous = current
+        periods += window_periods
+    return FeederMotion(current["integral"], current["flight"], current["stick"],
+                        current["backward"], periods, converged,
+                        tuple(x / period for x in run.bins["integral"][:periods]))
 
-    def load(x):  # normal load per unit mass while in contact
-        return g - normal * math.sin(w * x)
 
-    def excess(x):  # friction a stick needs beyond mu N (per unit mass)
-        return abs(along * math.sin(w * x) + push) - mu * load(x)
+class _BlockRun:
+    """The block's event-driven motion on the track (``convey``): its state (the time t, the
+    relative velocity s along the track, in flight or in contact, a flight's normal rate) and
+    the per-period sums of the integral of s and the times in flight, stuck and slipping
+    backwards. Between events every phase is in closed form; the events (lift-off, landing,
+    release, a stop of the slip) are bracketed roots."""
 
-    def next_lift(t0):
+    def __init__(self, feeder: Feeder, push: float, samples_per_period: int,
+                 max_periods: int) -> None:
+        self.feeder = feeder
+        w = self.w = feeder.omega
+        self.g, self.mu = feeder.gravity_m_per_s2, feeder.friction_coefficient
+        self.b = feeder.throw_angle_rad
+        self.push = push
+        self.along = feeder.amplitude_m * w * w * math.cos(self.b)  # the track's acceleration
+        self.normal = feeder.amplitude_m * w * w * math.sin(self.b)  # amplitudes, along/across
+        self.period = 2 * math.pi / w
+        self.step = self.period / samples_per_period
+        self.eps = 1e-9 * self.period  # past an event, to read which way the motion goes
+        self.gamma = feeder.throw_number
+        # the load turns negative there
+        self.lift_phase = math.asin(1 / self.gamma) if self.gamma > 1 else None
+        self.bins = {key: [] for key in ("integral", "flight", "stick", "backward")}
+        self.t, self.s, self.in_flight, self.flight_rate = 0.0, 0.0, False, 0.0
+        self.events_left = 50 * samples_per_period * max_periods  # a guard, far above any
+
+    def load(self, x):  # normal load per unit mass while in contact
+        return self.g - self.normal * math.sin(self.w * x)
+
+    def excess(self, x):  # friction a stick needs beyond mu N (per unit mass)
+        return abs(self.along * math.sin(self.w * x) + self.push) - self.mu * self.load(x)
+
+    def next_lift(self, t0):
         """The first time after t0 where the load turns negative (closed form)."""
-        if lift_phase is None:
+        if self.lift_phase is None:
             return None
-        k = math.floor((w * t0 - lift_phase) / (2 * math.pi)) + 1
-        candidate = (lift_phase + 2 * math.pi * k) / w
-        return candidate if candidate > t0 + eps else candidate + period
+        w = self.w
+        k = math.floor((w * t0 - self.lift_phase) / (2 * math.pi)) + 1
+        candidate = (self.lift_phase + 2 * math.pi * k) / w
+        return candidate if candidate > t0 + self.eps else candidate + self.period
 
-    def flight_height(t0, x, rate0=0.0):
+    def flight_height(self, t0, x, rate0=0.0):
         """Height above the track at x of a flight that left it at t0 with normal rate rate0
         (0 at a lift-off, where the load is 0, and after a landing into a re-lift, where it is
         negative; positive for a part set down at rest on a track moving away from it)."""
+        w = self.w
         tau, theta, phase = x - t0, w * (x - t0), w * t0
-        return (rate0 * tau - load(t0) * 0.5 * tau * tau + normal / (w * w) * (
+        return (rate0 * tau - self.load(t0) * 0.5 * tau * tau + self.normal / (w * w) * (
             math.sin(phase) * _one_minus_cos_minus_half_square(theta)
             + math.cos(phase) * _x_minus_sin(theta)))
 
-    # per-period sums: the integral of s and the times in flight, stuck, slipping backwards
-    bins = {key: [] for key in ("integral", "flight", "stick", "backward")}
-
-    def account(kind, t0, t1, P, Q, v0):
+    def account(self, kind, t0, t1, P, Q, v0):
         """Adds [t0, t1] to the periods it covers."""
+        period, w, bins = self.period, self.w, self.bins
         lo = t0
         while lo < t1:
             k = int(lo // period)
@@ -230,98 +270,94 @@ def convey(feeder: Feeder, *, push_m_per_s2: float = 0.0, start_phase_rad: float
                 bins[kind][k] += hi - lo
             lo = hi
 
-    if not (math.isfinite(start_phase_rad) and 0 <= start_phase_rad < 2 * math.pi):
-        raise ParameterError(f"start_phase_rad={start_phase_rad!r} must be in [0, 2 pi)")
-    t = start_phase_rad / w
-    s, in_flight, flight_rate = 0.0, False, 0.0
-    if at_rest:
-        # at rest in space on the track at t: relative to it, minus its velocity, along and
-        # normal; a track moving into the part lands it (plastic, friction impulse <= mu p), one
-        # moving away leaves it in flight with that normal rate
+    def start(self, t: float, at_rest: bool) -> None:
+        """Start at t stuck to the track, or (``at_rest``) at rest in space on it: relative to
+        it, minus its velocity, along and normal; a track moving into the part lands it
+        (plastic, friction impulse <= mu p), one moving away leaves it in flight with that
+        normal rate."""
+        feeder, w, mu = self.feeder, self.w, self.mu
+        self.t = t
+        if not at_rest:
+            return
         s = -feeder.along_velocity_amplitude * math.cos(w * t)
-        normal_rate = -feeder.amplitude_m * w * math.sin(b) * math.cos(w * t)
+        normal_rate = -feeder.amplitude_m * w * math.sin(self.b) * math.cos(w * t)
         if normal_rate < 0:
             impulse = -normal_rate
             s = 0.0 if abs(s) <= mu * impulse else s - mu * impulse * math.copysign(1.0, s)
         elif normal_rate > 0:
-            in_flight, flight_rate = True, normal_rate
-    events_left = 50 * samples_per_period * max_periods  # a guard, far above any real count
+            self.in_flight, self.flight_rate = True, normal_rate
+        self.s = s
 
-    def run_until(t_stop):
-        nonlocal t, s, in_flight, flight_rate, events_left
-        while t < t_stop:
-            events_left -= 1
-            if events_left < 0:
+    def run_until(self, t_stop: float) -> None:
+        """Follow the motion event by event to t_stop (a flight to its landing, past t_stop if
+        need be: the windows read whole periods only)."""
+        while self.t < t_stop:
+            self.events_left -= 1
+            if self.events_left < 0:
                 raise RuntimeError("feeder reference: more events than a run can have")
-            if in_flight:
-                t0 = t
-                # a flight is followed to its landing, past t_stop if need be (the windows read
-                # whole periods only)
-                rate0 = flight_rate
-                land = _first_root(lambda x: flight_height(t0, x, rate0), t0, t0 + 20 * period,
-                                   step, +1.0)
-                if land is None:
-                    raise RuntimeError("feeder reference: a flight longer than 20 periods "
-                                       f"(throw number {gamma:.3g})")
-                account("flight", t0, land, along, push, s)
-                s_minus = _velocity(along, push, w, t0, s, land)
-                rate = rate0 - normal / w * (math.cos(w * land) - math.cos(w * t0)) \
-                    - g * (land - t0)
-                impulse = -rate
-                flight_rate = 0.0
-                s = 0.0 if abs(s_minus) <= mu * impulse else \
-                    s_minus - mu * impulse * math.copysign(1.0, s_minus)
-                t, in_flight = land, False
-                continue
-            if load(t + eps) < 0:
-                in_flight = True
-                continue
-            lift = next_lift(t)
-            lift = lift if lift is not None and lift < t_stop else None
-            if s == 0.0:
-                if excess(t + eps) <= 0:  # it stays stuck until released or lifted
-                    release = _first_root(excess, t, t_stop, step, -1.0)
-                    t_end = min(x for x in (release, lift, t_stop) if x is not None)
-                    account("stick", t, t_end, 0.0, 0.0, 0.0)
-                    in_flight = lift is not None and t_end == lift
-                    t = t_end
-                    continue
-                # Released: it slips against the track's pull (the friction saturates).
-                direction = 1.0 if along * math.sin(w * (t + eps)) + push > 0 else -1.0
+            if self.in_flight:
+                self._fly()
+            elif self.load(self.t + self.eps) < 0:
+                self.in_flight = True
             else:
-                direction = 1.0 if s > 0 else -1.0
-            P, Q = (along + direction * mu * normal), push - direction * mu * g
-            v0, t0 = s, t
-            stop = _first_root(lambda x: direction * _velocity(P, Q, w, t0, v0, x), t0,
-                               t_stop, step, +1.0)
-            t_end = min(x for x in (stop, lift, t_stop) if x is not None)
-            account("backward" if direction < 0 else "forward", t0, t_end, P, Q, v0)
-            s = 0.0 if (stop is not None and t_end == stop) else \
-                _velocity(P, Q, w, t0, v0, t_end)
-            in_flight = lift is not None and t_end == lift
-            t = t_end
+                self._contact(t_stop)
 
-    def window_mean(end_period):
+    def _fly(self) -> None:
+        """A flight from t to its landing, and the landing's impulse (plastic, friction
+        impulse <= mu p)."""
+        w, mu, t0, s = self.w, self.mu, self.t, self.s
+        rate0 = self.flight_rate
+        land = _first_root(lambda x: self.flight_height(t0, x, rate0), t0,
+                           t0 + 20 * self.period, self.step, +1.0)
+        if land is None:
+            raise RuntimeError("feeder reference: a flight longer than 20 periods "
+                               f"(throw number {self.gamma:.3g})")
+        self.account("flight", t0, land, self.along, self.push, s)
+        s_minus = _velocity(self.along, self.push, w, t0, s, land)
+        rate = rate0 - self.normal / w * (math.cos(w * land) - math.cos(w * t0)) \
+            - self.g * (land - t0)
+        impulse = -rate
+        self.flight_rate = 0.0
+        self.s = 0.0 if abs(s_minus) <= mu * impulse else \
+            s_minus - mu * impulse * math.copysign(1.0, s_minus)
+        self.t, self.in_flight = land, False
+
+    def _contact(self, t_stop: float) -> None:
+        """In contact from t: stuck until released or lifted, or slipping (the friction
+        saturated) until the slip stops, the block lifts or t_stop."""
+        w, mu, t = self.w, self.mu, self.t
+        lift = self.next_lift(t)
+        lift = lift if lift is not None and lift < t_stop else None
+        if self.s == 0.0:
+            if self.excess(t + self.eps) <= 0:  # it stays stuck until released or lifted
+                release = _first_root(self.excess, t, t_stop, self.step, -1.0)
+                t_end = min(x for x in (release, lift, t_stop) if x is not None)
+                self.account("stick", t, t_end, 0.0, 0.0, 0.0)
+                self.in_flight = lift is not None and t_end == lift
+                self.t = t_end
+                return
+            # Released: it slips against the track's pull (the friction saturates).
+            direction = 1.0 if self.along * math.sin(w * (t + self.eps)) + self.push > 0 \
+                else -1.0
+        else:
+            direction = 1.0 if self.s > 0 else -1.0
+        P, Q = (self.along + direction * mu * self.normal), self.push - direction * mu * self.g
+        v0, t0 = self.s, t
+        stop = _first_root(lambda x: direction * _velocity(P, Q, w, t0, v0, x), t0,
+                           t_stop, self.step, +1.0)
+        t_end = min(x for x in (stop, lift, t_stop) if x is not None)
+        self.account("backward" if direction < 0 else "forward", t0, t_end, P, Q, v0)
+        self.s = 0.0 if (stop is not None and t_end == stop) else \
+            _velocity(P, Q, w, t0, v0, t_end)
+        self.in_flight = lift is not None and t_end == lift
+        self.t = t_end
+
+    def window_mean(self, end_period: int, window_periods: int) -> dict[str, float]:
+        """The per-period sums' means over the window of ``window_periods`` periods ending at
+        ``end_period``: the mean relative velocity (m/s) and the time fractions."""
         lo = end_period - window_periods
-        return {key: sum(values[lo:end_period]) / (window_periods * period)
-                for key, values in bins.items()}
-
-    periods = settle_periods + window_periods
-    previous, converged = None, False
-    while True:
-        run_until(periods * period)
-        current = window_mean(periods)
-        scale = tolerance * feeder.along_velocity_amplitude
-        if previous is not None and abs(current["integral"] - previous["integral"]) <= scale:
-            converged = True
-            break
-        if periods + window_periods > max_periods:
-            break
-        previous = current
-        periods += window_periods
-    return FeederMotion(current["integral"], current["flight"], current["stick"],
-                        current["backward"], periods, converged,
-                        tuple(x / period for x in bins["integral"][:periods]))
+        return {key: sum(values[lo:end_period]) / (window_periods * self.period)
+                for key, values in self.bins.items()}
 
 
 def set_down_travel(feeder: Feeder, periods: int, start_phase_rad: float = 0.0) -> np.ndarray:

@@ -586,52 +586,12 @@ def _simulate_gms(drive: _Rig, contact: _Contact, friction: FrictionParameters,
     atol = np.concatenate([np.asarray(atol, dtype=float)[:2] if np.ndim(atol) else [atol] * 2,
                            np.full(n, atol[2] if np.ndim(atol) else atol)])
 
-    def force(v: float, z: np.ndarray) -> float:
-        return float(k @ z) + contact.s2 * v + contact.offset_N
-
-    def relative_acceleration(t: float, y: np.ndarray) -> float:
-        _, udot, uddot = drive.support(t)
-        v = y[1] - udot
-        return (drive.drive_force(t, y[0], y[1]) - force(v, y[2:])) / drive.m - uddot
-
-    def segment(modes: np.ndarray):
-        stuck = modes == 0
-
-        def rhs(t: float, y: np.ndarray) -> np.ndarray:
-            _, udot, _ = drive.support(t)
-            v = y[1] - udot
-            out = np.empty_like(y)
-            out[0] = y[1]
-            out[1] = (drive.drive_force(t, y[0], y[1]) - force(v, y[2:])) / drive.m
-            out[2:] = np.where(stuck, v, 0.0)
-            return out
-
-        events, meaning = [], []
-        for i in np.flatnonzero(stuck):
-            for s in (1, -1):
-                # (a margin of 1e-9 of the level: an element stuck at its level after v_r = 0
-                # starts below its event, not on it within roundoff)
-                def reach(t, y, i=i, s=s):
-                    return s * y[2 + i] - limit[s][i] * (1 + 1e-9)
-                reach.terminal, reach.direction = True, 1
-                events.append(reach)
-                meaning.append((i, s))
-        if not stuck.all():
-            direction = int(modes[~stuck][0])
-
-            def stop(t, y):
-                return y[1] - drive.support(t)[1]
-            stop.terminal, stop.direction = True, -direction
-            events.append(stop)
-            meaning.append((-1, 0))
-        return rhs, events, meaning
-
     t_end = t_grid[-1]
     t, y, modes = 0.0, np.zeros(2 + n), np.zeros(n, dtype=int)
     chunks: list[tuple[np.ndarray, np.ndarray]] = []
     n_done, n_empty = 0, 0
     while n_done < t_grid.size:
-        rhs, events, meaning = segment(modes)
+        rhs, events, meaning = _gms_segment(drive, contact, k, limit, modes)
         sol = solve_ivp(rhs, (t, t_end), y, method=ODE_METHOD, t_eval=t_grid[n_done:],
                         events=events or None, rtol=rtol, atol=atol, max_step=max_step_s)
         if sol.status == -1:
@@ -643,17 +603,7 @@ def _simulate_gms(drive: _Rig, contact: _Contact, friction: FrictionParameters,
             break
         fired = next(i for i, times in enumerate(sol.t_events) if times.size)
         t_event, y = sol.t_events[fired][0], sol.y_events[fired][0].copy()
-        element, s = meaning[fired]
-        if element >= 0:  # reached its level: slips from here, held at it
-            modes[element] = s
-            y[2 + element] = s * limit[s][element]
-        else:  # v_r = 0: the slipping elements stick, unless the motion resumes their way
-            y[1] = drive.support(t_event)[1]
-            modes[:] = 0
-            resumes = np.sign(relative_acceleration(t_event, y))
-            if resumes:
-                at_level = np.isclose(resumes * y[2:], limit[int(resumes)], rtol=1e-9, atol=0)
-                modes[at_level] = int(resumes)
+        _gms_event(drive, contact, k, limit, meaning[fired], t_event, y, modes)
         n_empty = n_empty + 1 if t_event <= t else 0
         if n_empty > _MAX_EMPTY_SEGMENTS:
             raise RuntimeError(f"gms stick/slip events do not advance at t={t} s")
@@ -671,6 +621,71 @@ def _simulate_gms(drive: _Rig, contact: _Contact, friction: FrictionParameters,
 
 # --------------------------------------------------------------------------------------------
 # Outputs
+
+
+def _gms_force(contact: _Contact, k: np.ndarray, v: float, z: np.ndarray) -> float:
+    """The gms friction force (N) at relative velocity v (m/s) and element deflections z (m)."""
+    return float(k @ z) + contact.s2 * v + contact.offset_N
+
+
+def _gms_segment(drive: _Rig, contact: _Contact, k: np.ndarray, limit: dict,
+                 modes: np.ndarray) -> tuple[Callable, list, list]:
+    """(the right-hand side, the events, what each event means) of a segment in which the
+    elements' modes (0 stuck, +-1 slipping that way, held at their level) stay as they are:
+    a stuck element reaching its level, or (while one slips) v_r = 0."""
+    stuck = modes == 0
+
+    def rhs(t: float, y: np.ndarray) -> np.ndarray:
+        _, udot, _ = drive.support(t)
+        v = y[1] - udot
+        out = np.empty_like(y)
+        out[0] = y[1]
+        out[1] = (drive.drive_force(t, y[0], y[1]) - _gms_force(contact, k, v, y[2:])) / drive.m
+        out[2:] = np.where(stuck, v, 0.0)
+        return out
+
+    events, meaning = [], []
+    for i in np.flatnonzero(stuck):
+        for s in (1, -1):
+            # (a margin of 1e-9 of the level: an element stuck at its level after v_r = 0
+            # starts below its event, not on it within roundoff)
+            def reach(t, y, i=i, s=s):
+                return s * y[2 + i] - limit[s][i] * (1 + 1e-9)
+            reach.terminal, reach.direction = True, 1
+            events.append(reach)
+            meaning.append((i, s))
+    if not stuck.all():
+        direction = int(modes[~stuck][0])
+
+        def stop(t, y):
+            return y[1] - drive.support(t)[1]
+        stop.terminal, stop.direction = True, -direction
+        events.append(stop)
+        meaning.append((-1, 0))
+    return rhs, events, meaning
+
+
+def _gms_event(drive: _Rig, contact: _Contact, k: np.ndarray, limit: dict,
+               meaning: tuple[int, int], t_event: float, y: np.ndarray,
+               modes: np.ndarray) -> None:
+    """Apply an event to the state y and the modes (in place): an element that reached its
+    level slips from here, held at it; at v_r = 0 the slipping elements stick, unless the
+    motion resumes their way."""
+    element, s = meaning
+    if element >= 0:
+        modes[element] = s
+        y[2 + element] = s * limit[s][element]
+        return
+    y[1] = drive.support(t_event)[1]
+    modes[:] = 0
+    _, udot, uddot = drive.support(t_event)
+    v = y[1] - udot
+    acceleration = (drive.drive_force(t_event, y[0], y[1]) -
+                    _gms_force(contact, k, v, y[2:])) / drive.m - uddot
+    resumes = np.sign(acceleration)
+    if resumes:
+        at_level = np.isclose(resumes * y[2:], limit[int(resumes)], rtol=1e-9, atol=0)
+        modes[at_level] = int(resumes)
 
 
 def _series(drive: _Rig, t: np.ndarray, x: np.ndarray, xdot: np.ndarray, z: np.ndarray,
