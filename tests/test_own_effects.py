@@ -190,3 +190,43 @@ def test_a_declared_harmonic_without_a_vibration_is_refused():
                               if not k.startswith("support_")})
     with pytest.raises(InputError, match="normal_force_modulation_2f: not applicable"):
         identify(record, law="lugre", declared=("normal_force_modulation_2f",))
+
+
+def test_dropping_an_exclusive_effect_frees_its_partners():
+    """The driver: selecting one load-modulation harmonic takes its partners out of the
+    candidates; once a backward step drops it, they are candidates again (the dropped one
+    not)."""
+    from types import SimpleNamespace
+
+    from vibrofriction.identify.driver import select
+
+    class BackEnd:
+        round_action = "fitting"
+
+        def __init__(self):
+            self.seen = []
+
+        def evaluate_round(self, current, remaining, index):
+            self.seen.append(list(remaining))
+            winner = {1: "normal_force_modulation", 2: "viscous"}.get(index)
+            return [SimpleNamespace(effect=e, delta_bic=-50.0 if e == winner else 5.0,
+                                    held_out_evidence=0.0, validation_log_ratio=None,
+                                    justified=e == winner, fit=current) for e in remaining]
+
+        def accept(self, best, current, index):
+            return best
+
+        def selected_note(self, accepted):
+            return ""
+
+        def backward_step(self, current, selected, index, final):
+            if index == 2 and "normal_force_modulation" in selected:
+                selected.remove("normal_force_modulation")  # no longer justified
+            return current
+
+    back_end = BackEnd()
+    effects = ["normal_force_modulation", "normal_force_modulation_2f", "viscous", "stribeck"]
+    result = select(back_end, start=None, effects=effects, say=lambda line: None)
+    assert back_end.seen[1] == ["viscous", "stribeck"]  # the 2f held back in round 2
+    assert back_end.seen[2] == ["normal_force_modulation_2f", "stribeck"]  # ... and freed
+    assert result.selected == ["viscous"]

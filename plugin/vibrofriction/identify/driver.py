@@ -119,6 +119,8 @@ def select(back_end: BackEnd[C, F], start: F, effects: Sequence[str],
     candidates: dict[str, C] = {}
     rounds: list[list[C]] = []
     selected: list[str] = []
+    held_back: set[str] = set()  # out of the candidates while an exclusive partner is selected
+    dropped: set[str] = set()  # dropped by a backward step: not a candidate again
     while remaining:
         index = len(rounds) + 1
         say(f"round {index}: {back_end.round_action} {len(remaining)} candidate(s): "
@@ -134,13 +136,23 @@ def select(back_end: BackEnd[C, F], start: F, effects: Sequence[str],
         selected.append(best.effect)
         remaining.remove(best.effect)
         # (one of an exclusive group: a load modulation at one harmonic of the vibration)
-        remaining = [e for e in remaining if e not in excluded_by(selected)]
+        held_back.update(e for e in remaining if e in excluded_by(selected))
+        remaining = [e for e in remaining if e not in held_back]
         accepted = back_end.accept(best, current, index)
         candidates[best.effect] = accepted
         current = accepted.fit
         say(f"round {index}: selected {best.effect}{back_end.selected_note(accepted)}{why}")
         # (an effect dropped is not a candidate again: no cycles)
+        before = list(selected)
         current = back_end.backward_step(current, selected, index, final=False)
+        dropped.update(set(before) - set(selected))
+        # an exclusive partner of a dropped effect is a candidate again (the load modulation
+        # at another harmonic, once the one selected is dropped)
+        freed = [e for e in effects if e in held_back and e not in excluded_by(selected)
+                 and e not in dropped]
+        if freed:
+            held_back.difference_update(freed)
+            remaining = [e for e in effects if e in remaining or e in freed]
     current = back_end.backward_step(current, selected, len(rounds), final=True)
     say("selected: " + (", ".join(selected) if selected else "nothing"))
     return Selection(final=current, candidates=candidates, rounds=rounds, selected=selected)
