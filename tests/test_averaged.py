@@ -13,7 +13,7 @@ import pytest
 
 from vibrofriction.robots import averaged
 from vibrofriction.rigs import planar
-from vibrofriction.params import FrictionParameters, RigParameters
+from vibrofriction.params import FrictionParameters, ParameterError, RigParameters
 
 # A 0.2 kg part on a plate vibrating at 2 kHz with v_a = 50 mm/s (u0 = 4 um), mu = 0.3,
 # Dahl with k_t = 1 N/um: eps = k_t u0 / (mu F_N) = 6.8, m omega^2 / k_t = 32 (heavy body).
@@ -167,12 +167,21 @@ def test_a_bad_stribeck_velocity_is_named():
 @pytest.mark.parametrize("key, value", [("law", "dahl"), ("stiffness", "1e6")])
 def test_a_law_key_of_the_resolved_element_is_refused_by_name(key, value):
     """The law's shape is in the table: the resolved element's law keys are not attributes of
-    the averaged one, and MuJoCo names the one given."""
+    the averaged one. Set from Python, the key is named against the table before MuJoCo
+    compiles; written in MJCF, MuJoCo names it."""
     config = {"mu": "0.3", "normal": repr(NORMAL_N), key: value}
-    spec = planar.build_rig_spec(_rig(0.5), PART, timestep_s=1e-3, averaged_config=config)
+    with pytest.raises(ParameterError, match=f"vibrofriction.averaged has no config key "
+                                             f"'{key}'; its keys are mu, viscous"):
+        planar.build_rig_spec(_rig(0.5), PART, timestep_s=1e-3, averaged_config=config)
+    spec = planar.build_rig_spec(_rig(0.5), PART, timestep_s=1e-3,
+                                 averaged_config={"mu": "0.3", "normal": repr(NORMAL_N)})
+    text = spec.to_xml().replace('<config key="mu" value="0.3"/>',
+                                 f'<config key="mu" value="0.3"/><config key="{key}" '
+                                 f'value="{value}"/>', 1)
+    assert f'key="{key}"' in text
     with pytest.raises(ValueError, match=f"unrecognized attribute 'plugin:{key}' for plugin "
                                          "vibrofriction.averaged"):
-        spec.compile()
+        mujoco.MjModel.from_xml_string(text)
 
 def test_invalid_table_is_named(dahl_table):
     config = dahl_table.config()

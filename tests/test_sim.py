@@ -34,6 +34,9 @@ def test_values_are_written_as_mjcf_text() -> None:
     assert config == {"mu": "0.5", "axis": "1.0 0.0 0.5", "support": "plate",
                       "helix_pitch": "0.02"}
     assert sim.plugin_config("motion", {"use_ctrl": True})["use_ctrl"] == "true"
+    assert sim.plugin_config("motion", {"use_ctrl": np.bool_(True)})["use_ctrl"] == "true"
+    assert sim.plugin_config("contact_feeder", {"axis": np.array([1.0, 0.0, 0.0])})["axis"] == \
+        "1.0 0.0 0.0"
 
 
 def test_an_element_added_through_mjspec_holds_a_part_as_its_xml_twin_does() -> None:
@@ -73,6 +76,7 @@ def test_add_plugin_instance_names_a_missing_body_and_set_plugin_config_checks_k
     with pytest.raises(ParameterError, match="the model has no body 'prat'"):
         sim.add_plugin_instance(spec, "contact", "f", {"law": "coulomb", "support": "plate"},
                                 body="prat")
+    assert len(spec.plugins) == 0  # a failing call adds nothing
     spec = mujoco.MjSpec.from_string(PLATE_AND_PART)
     sim.add_plugin_instance(spec, "contact", "f", {"law": "coulomb", "support": "plate"})
     with pytest.raises(ParameterError, match="has no config key 'torsion'"):

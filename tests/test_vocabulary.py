@@ -143,6 +143,10 @@ def test_the_generated_header_is_the_table() -> None:
     expected = {row.mjcf_key: float(row.default) for row in ALL_KEYS
                 if isinstance(row.default, (int, float)) and not isinstance(row.default, bool)}
     assert defaults == expected
+    flags = {keys[name]: value == "true" for name, value in re.findall(
+        r"inline constexpr bool (k\w+) = (true|false);", header)}
+    assert flags == {row.mjcf_key: row.default for row in ALL_KEYS
+                     if isinstance(row.default, bool)} and flags
     by_key = re.findall(r"\{keys::(k\w+), defaults::(k\w+)\}", header)
     assert {keys[k] for k, d in by_key} == set(expected) and all(k == d for k, d in by_key)
     ranges = {keys[name]: (_number(lo), _number(hi)) for name, lo, hi in re.findall(
@@ -178,7 +182,9 @@ def test_no_cpp_source_restates_a_key_a_default_or_an_attribute_list() -> None:
         for call in re.findall(r"RegisterElementPlugin<[^;]*?>\(\s*[\w:]+, ([\w:]+),", text):
             assert call.startswith(("attributes::", "Spec::kAttributes")), (name, call)
         own_default += [(name, k) for k in re.findall(
-            r"ReadNumber\(m, instance, \w+, (k\w+), [-+0-9.]", text)]
+            r"ReadNumber\(m, instance, \w+, (\w+), [-+0-9.]", text)]
+        own_default += [(name, k) for k in re.findall(
+            r"ReadBool\(m, instance, \w+, (\w+), (?:true|false)\b", text)]
     assert own_default == [("plugins/contact_friction.cc", "kMu")]
     ranges = sources["common/plugin_util.cc"]
     assert "kKeyRanges" in ranges and not re.search(r'\{"\w+", \{[-0-9.e]+, ', ranges)
@@ -398,8 +404,10 @@ def test_the_one_copy_from_the_c_struct_fills_every_field() -> None:
 
 
 def test_normal_gain_has_one_unit_in_every_docs_table() -> None:
-    """normal_gain (N per unit of the sensor value or contact force) is no friction term, so
-    the vocabulary does not hold it: every docs table row that names it gives it N/unit."""
+    """normal_gain (N per unit of the sensor value or contact force) is an element's own key
+    of the vocabulary (ELEMENT_KEYS): every docs table row that names it gives it the table's
+    unit, N/unit."""
+    assert next(k.unit for k in ELEMENT_KEYS if k.mjcf_key == "normal_gain") == "N/unit"
     pages = [ROOT / "docs" / name for name in ("interfaces.md", "simulation.md", "robots.md")]
     pages.append(CPP / "README.md")
     rows = [line for page in pages for line in page.read_text().splitlines()

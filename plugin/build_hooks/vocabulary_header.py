@@ -6,7 +6,7 @@ acts in are changed in that table alone and every element, the C API and Python 
 
 * ``keys::k<Key>``: each MJCF config key of the friction elements (the friction terms and the
   elements' own keys: normal load, vibration, contact and feeder keys);
-* ``defaults::k<Key>``: the table's default of each key with one number as its default (and
+* ``defaults::k<Key>``: the table's default of each key whose default is a number or a bool (and
   ``kKeyDefaults``, the same by key, which the config readers look up);
 * ``kKeyRanges``: (smallest nonzero magnitude, largest) of each key with limits, the range the
   config readers check every number against;
@@ -69,11 +69,15 @@ def header(vocabulary) -> str:
            "namespace keys {"]
     out += [f'inline constexpr char {constant_name(k)}[] = "{k}";' for k in keys]
     out += ["}  // namespace keys", "",
-            "// the table's default of each key whose default is one number",
+            "// the table's default of each key whose default is a number or a bool",
             "namespace defaults {"]
     for row in rows:
         default = row.default
-        if isinstance(default, bool) or not isinstance(default, (int, float)):
+        if isinstance(default, bool):
+            out.append(f"inline constexpr bool {constant_name(row.mjcf_key)} = "
+                       f"{'true' if default else 'false'};")
+            continue
+        if not isinstance(default, (int, float)):
             continue
         out.append(f"inline constexpr double {constant_name(row.mjcf_key)} = "
                    f"{cpp_number(default)};  // {row.unit}")

@@ -192,7 +192,7 @@ ELEMENT_KEYS: tuple[ElementKey, ...] = (
                "constant normal load"),
     ElementKey("normal_sensor", "name", None, None, NORMAL_LOAD_ELEMENTS,
                "a sensor whose value (times normal_gain) adds to the normal load"),
-    ElementKey("normal_gain", "N per unit", 1.0, (0.0, 1e9), NORMAL_LOAD_ELEMENTS,
+    ElementKey("normal_gain", "N/unit", 1.0, (0.0, 1e9), NORMAL_LOAD_ELEMENTS,
                "newtons per unit of the normal sensor or contact force"),
     ElementKey("normal_component", "-", 0.0, None, NORMAL_LOAD_ELEMENTS,
                "the sensor's component read as the load"),
@@ -249,7 +249,7 @@ ELEMENT_KEYS: tuple[ElementKey, ...] = (
                "read the extension beyond the tendon's dead band (a play)"),
     ElementKey("position_gain", "N/m", 0.0, None, ("sampled_pd",), "P gain"),
     ElementKey("velocity_gain", "N s/m", 0.0, None, ("sampled_pd",), "D gain"),
-    ElementKey("drive_gain", "N per unit", 1.0, None, ("sampled_pd",),
+    ElementKey("drive_gain", "N/unit", 1.0, None, ("sampled_pd",),
                "force per unit of the command"),
     ElementKey("saturation", "N", 0.0, None, ("sampled_pd",), "command limit (0: none)"),
     ElementKey("sample_period", "s", 0.0, None, ("sampled_pd",), "controller sample period"),
@@ -261,7 +261,8 @@ ELEMENT_KEYS: tuple[ElementKey, ...] = (
 )
 # every key of every plugin: the friction terms', then the plugins' own
 ALL_KEYS: tuple = FRICTION_TERMS + ELEMENT_KEYS
-# each key's default (a number, a bool, an empty tuple for a list, None for a name or text)
+# each key's default (a number, a bool; a friction term's list: an empty tuple; a plugin's own
+# list, name or text: None)
 KEY_DEFAULTS = {row.mjcf_key: row.default for row in ALL_KEYS}
 # the keys that say where an element's normal load comes from (config, sensor, contacts)
 NORMAL_LOAD_KEYS = tuple(k.mjcf_key for k in ELEMENT_KEYS if k.elements == NORMAL_LOAD_ELEMENTS)

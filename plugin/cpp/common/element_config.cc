@@ -68,7 +68,7 @@ bool ReadLevelMap(const mjModel* m, int instance, const char* plugin, const char
     return false;
   }
   double period = 0.0;
-  if (period_key && !ReadNumber(m, instance, plugin, period_key, 0.0, &period)) return false;
+  if (period_key && !ReadNumber(m, instance, plugin, period_key, &period)) return false;
   if (knots.size() != factors.size()) {
     return ConfigError("%s: '%s' has %d values and '%s' %d; give one factor per knot", plugin,
                        knots_key, static_cast<int>(knots.size()), factors_key,

@@ -341,7 +341,7 @@ bool AveragedConfig::FromModel(const mjModel* m, int instance, AveragedConfig* c
   }
   c.axis_cos = std::cos(c.axis_angle);
   c.axis_sin = std::sin(c.axis_angle);
-  if (!ReadBool(m, instance, kPlugin, kUseCtrl, false, &c.use_ctrl)) return false;
+  if (!ReadBool(m, instance, kPlugin, kUseCtrl, defaults::kUseCtrl, &c.use_ctrl)) return false;
   if (!ReadAveragedTable(m, instance, kPlugin, c.velocity_amplitude, &c.table)) return false;
   if (c.velocity_amplitude == 0 && c.use_ctrl) {
     return Reject(kVelocityAmplitude, c.velocity_amplitude,

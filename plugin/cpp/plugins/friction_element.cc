@@ -138,7 +138,9 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
   c.actuator = FindActuator(m, instance, kPlugin);
   if (c.actuator < 0) return false;
   bool from_ctrl = false;
-  if (!ReadBool(m, instance, kPlugin, kNormalFromCtrl, false, &from_ctrl)) return false;
+  if (!ReadBool(m, instance, kPlugin, kNormalFromCtrl, defaults::kNormalFromCtrl, &from_ctrl)) {
+    return false;
+  }
   if (from_ctrl) {
     if (c.normal.sensor >= 0 || c.normal.UsesContacts()) {
       ConfigError("%s: 'normal_from_ctrl' and '%s' are both set; use one source for the "

@@ -32,7 +32,10 @@ bool LaggedTendonConfig::FromModel(const mjModel* m, int instance, LaggedTendonC
   if (c.time_constant < 0) {
     return RejectAttribute(kPlugin, kTimeConstant, c.time_constant, "must be >= 0 (s)");
   }
-  if (!ReadBool(m, instance, kPlugin, kBeyondDeadband, false, &c.beyond_deadband)) return false;
+  if (!ReadBool(m, instance, kPlugin, kBeyondDeadband, defaults::kBeyondDeadband,
+                &c.beyond_deadband)) {
+    return false;
+  }
   *config = c;
   return true;
 }

@@ -28,8 +28,8 @@ bool MotionConfig::FromModel(const mjModel* m, int instance, MotionConfig* confi
       !ReadNumber(m, instance, kPlugin, kRampPeriods, &c.ramp_periods)) {
     return false;
   }
-  if (!ReadBool(m, instance, kPlugin, kUseCtrl, false, &c.use_ctrl)) return false;
-  if (!ReadBool(m, instance, kPlugin, kDisplacementFromCtrl, false,
+  if (!ReadBool(m, instance, kPlugin, kUseCtrl, defaults::kUseCtrl, &c.use_ctrl)) return false;
+  if (!ReadBool(m, instance, kPlugin, kDisplacementFromCtrl, defaults::kDisplacementFromCtrl,
                 &c.displacement_from_ctrl)) {
     return false;
   }

@@ -620,7 +620,6 @@ def neutral_is_safe(friction: FrictionParameters) -> bool:
     return friction.static_ratio == 1
 
 
-@_trial_warnings_held()
 def _shooting_grid(rig: RigParameters, timestep_s: float,
                    vibrating: bool) -> tuple[float, int, float, float]:
     """(T the vibration period in s, N steps a period, the timestep dt1 = T / N in s, the
@@ -653,6 +652,7 @@ def _averaging_map_guess(first: PeriodicOrbit) -> tuple[np.ndarray, np.ndarray |
     return guess, first.mean_gradient @ powers / SLIDE_PERIODS
 
 
+@_trial_warnings_held()
 def solve_rig(rig: RigParameters, friction: FrictionParameters, *,
               timestep_s: float | None = None, tolerance: float = 1e-3,
               multiples: Sequence[int] = DEFAULT_MULTIPLES) -> RigOrbit:

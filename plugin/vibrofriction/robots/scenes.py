@@ -145,50 +145,59 @@ def feeder_plate_scene(parts: int, *, mode: str = "map", timestep_s: float | Non
     columns = math.ceil(math.sqrt(parts))
     rows = math.ceil(parts / columns)
     names = [f"part{k}" for k in range(parts)]
-    bodies = []
+    instances, bodies = [], []
     for k, name in enumerate(names):
         x = -0.03 * (columns - 1) / 2 + 0.03 * (k % columns)
         y = -0.03 * (rows - 1) / 2 + 0.03 * (k // columns)
         # resting on the plate (its top at z = 5 mm), 0.1 mm into it
         bodies.append(f'    <body name="{name}" pos="{x:.4f} {y:.4f} 0.0099">\n'
                       f'      <freejoint/>\n      <geom name="{name}" class="part"/>\n'
-                      '    </body>')
+                      f'      <plugin instance="{name}_friction"/>\n    </body>')
+        # (MJCF text, its configs checked against the table by sim.instance_xml: the scene is
+        # returned as text, and MuJoCo's writer would round its numbers)
+        if mode == "map":
+            instances.append(the_map.mjcf_instance(
+                f"{name}_friction", "plate", torsion_radius_m=FEEDER_PART_TORSION_RADIUS_M))
+        else:
+            instances.append(sim.instance_xml("contact", f"{name}_friction", {
+                "law": "coulomb", "mu": f.friction_coefficient, "support": "plate",
+                "torsion_radius": FEEDER_PART_TORSION_RADIUS_M}))
+    element = "contact_feeder" if mode == "map" else "contact"
     half_x = max(0.1, 0.015 * columns + 0.05)
     half_y = max(0.05, 0.015 * rows + 0.02)
     if mode == "map":
         plate = (f'    <body name="plate">\n      <geom name="plate" type="box" '
                  f'size="{half_x:.3f} {half_y:.3f} 0.005" condim="1"/>\n    </body>')
+        shakers = actuators = ""
     else:
+        v_a = f.amplitude_m * f.omega
         plate = (f'    <body name="plate">\n'
                  '      <joint name="plate_x" type="slide" axis="1 0 0" armature="1e5"/>\n'
                  '      <joint name="plate_z" type="slide" axis="0 0 1" armature="1e5"/>\n'
                  f'      <geom name="plate" type="box" size="{half_x:.3f} {half_y:.3f} 0.005" '
                  'condim="1" mass="3"/>\n    </body>')
-    spec = mujoco.MjSpec.from_string(
+        shakers = "".join(
+            '    <plugin plugin="vibrofriction.motion">\n' + sim.instance_xml(
+                "motion", f"shaker_{axis}", {"frequency": f.frequency_Hz,
+                                             "velocity_amplitude": v_a * component},
+                indent="      ") + '\n    </plugin>\n'
+            for axis, component in (("x", math.cos(f.throw_angle_rad)),
+                                    ("z", math.sin(f.throw_angle_rad))))
+        actuators = ('  <actuator>\n'
+                     '    <plugin name="shaker_x" joint="plate_x" instance="shaker_x"/>\n'
+                     '    <plugin name="shaker_z" joint="plate_z" instance="shaker_z"/>\n'
+                     '  </actuator>\n')
+    indented = "\n".join("      " + line for text in instances for line in text.splitlines())
+    return (
         f'<mujoco model="vibrofriction flexible feeder, {parts} parts, {mode}">\n'
         f'  <option timestep="{timestep!r}" integrator="implicitfast"/>\n'
+        f'  <extension>\n    <plugin plugin="vibrofriction.{element}">\n{indented}\n'
+        f'    </plugin>\n{shakers}  </extension>\n'
         '  <default>\n    <default class="part">\n'
         f'      <geom type="box" size="0.01 0.01 0.005" mass="{FEEDER_PART_MASS_KG!r}" '
         'condim="1" solref="0.001 1"/>\n    </default>\n  </default>\n'
-        f'  <worldbody>\n{plate}\n' + "\n".join(bodies) + '\n  </worldbody>\n</mujoco>\n')
-    # the elements and shakers through MjSpec and the table (sim)
-    for name in names:
-        if mode == "map":
-            config = the_map.contact_config("plate", torsion_radius_m=FEEDER_PART_TORSION_RADIUS_M)
-            sim.add_plugin_instance(spec, "contact_feeder", f"{name}_friction", config, body=name)
-        else:
-            sim.add_plugin_instance(spec, "contact", f"{name}_friction", {
-                "law": "coulomb", "mu": f.friction_coefficient, "support": "plate",
-                "torsion_radius": FEEDER_PART_TORSION_RADIUS_M}, body=name)
-    if mode == "resolved":
-        v_a = f.amplitude_m * f.omega
-        for axis, component in (("x", math.cos(f.throw_angle_rad)),
-                                ("z", math.sin(f.throw_angle_rad))):
-            sim.add_plugin_instance(spec, "motion", f"shaker_{axis}", {
-                "frequency": f.frequency_Hz, "velocity_amplitude": v_a * component})
-        for axis in ("x", "z"):
-            sim.add_plugin_actuator(spec, f"shaker_{axis}", f"plate_{axis}")
-    return spec.to_xml()
+        f'  <worldbody>\n{plate}\n' + "\n".join(bodies) + '\n  </worldbody>\n'
+        f'{actuators}</mujoco>\n')
 
 
 def table_files() -> dict[str, str]:

@@ -11,6 +11,7 @@ from typing import Mapping, Sequence
 from xml.sax.saxutils import quoteattr
 
 import mujoco
+import numpy as np
 
 from ..laws import package_file
 from ..params import ParameterError
@@ -26,9 +27,9 @@ def _value_text(plugin: str, key: str, value: object) -> str:
     a sequence of numbers space-separated."""
     if isinstance(value, str):
         return value
-    if isinstance(value, bool):
+    if isinstance(value, (bool, np.bool_)):
         return "true" if value else "false"
-    numbers = list(value) if isinstance(value, Sequence) else [value]
+    numbers = list(np.ravel(value)) if isinstance(value, (Sequence, np.ndarray)) else [value]
     try:
         floats = [float(x) for x in numbers]
     except (TypeError, ValueError):
@@ -62,13 +63,13 @@ def add_plugin_instance(spec: mujoco.MjSpec, plugin: str, name: str,
     sliding part). An actuator plugin is attached by ``add_plugin_actuator``."""
     full = plugin if plugin.startswith(PREFIX) else PREFIX + plugin
     values = plugin_config(full, config)
+    attached = spec.body(body) if body is not None else None
+    if body is not None and attached is None:  # (checked first: a failing call adds nothing)
+        raise ParameterError(f"{full} instance {name!r}: the model has no body {body!r}")
     spec.activate_plugin(full)
     instance = spec.add_plugin(name=name, plugin_name=full, active=True)
     instance.config = values
-    if body is not None:
-        attached = spec.body(body)
-        if attached is None:
-            raise ParameterError(f"{full} instance {name!r}: the model has no body {body!r}")
+    if attached is not None:
         attached.plugin.name = name
         attached.plugin.active = True
     return instance

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import functools
 import math
+import sys
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -449,11 +450,17 @@ def compare(config: StudyConfig, comparison: ComparisonConfig, *,
             config, comparison.cost_kappas, laws=laws, truth_method=comparison.method,
             method=comparison.method, builtin_refinements=comparison.cost_refinements,
             variants=comparison.variants,
-            log=(lambda text: report(laws.index(text.split(":")[0]) + 1, len(laws)))
-            if report else None)
+            log=(lambda text: _cost_line(text, report, laws)) if report else None)
     return Comparison(config=comparison, ladder=ladder, master=master, static=static,
                       traces=traces, rows=rows, frequency_Hz=f, duration_s=duration,
                       costs=costs)
+
+
+def _cost_line(text: str, report: Progress, laws: Sequence[str]) -> None:
+    """A stage of the converged-cost measurement on stderr (each within ~25 s of the last),
+    and the laws done on the progress bar."""
+    print(f"  {text}", file=sys.stderr, flush=True)
+    report(laws.index(text.split(":")[0]) + 1, len(laws))
 
 
 def _summaries(comparison: ComparisonConfig, ladder: Sequence[LadderResult],
@@ -822,8 +829,14 @@ def converged_curve_costs(config: StudyConfig, kappas: Sequence[float], *,
     say = log or (lambda text: None)
     out: dict = {"kappas": list(kappas), "accuracy": CURVE_ACCURACY, "truth_method": truth_method,
                  "laws": {}}
+    started = time.monotonic()
+
+    def stage(text: str) -> None:  # "law: ..." at every stage: no long silence
+        say(f"{text} [{time.monotonic() - started:.1f} s]")
     for law in laws:
         cases = curve_cases(law, kappas, config)
+        stage(f"{law}: the converged curve ({len(cases)} runs, the plugin at dt/"
+              f"{2 ** TRUTH_REFINEMENT}, {truth_method})")
         truth_runs, _ = _timed_curve(cases, TRUTH_REFINEMENT, truth_method)
         truth = [r.mean_drive_force_N for r in truth_runs]
 
@@ -832,6 +845,8 @@ def converged_curve_costs(config: StudyConfig, kappas: Sequence[float], *,
         entry: dict = {}
         for refine in range(MAX_PLUGIN_REFINEMENTS + 1):
             runs, cpu = _timed_curve(cases, refine, method)
+            stage(f"{law}: {method} route at dt/{2 ** refine}: {cpu:.2f} s CPU, worst error "
+                  f"{error(runs):.2%}")
             if error(runs) <= CURVE_ACCURACY or refine == MAX_PLUGIN_REFINEMENTS:
                 break
         entry["periodic"] = {
@@ -850,12 +865,19 @@ def converged_curve_costs(config: StudyConfig, kappas: Sequence[float], *,
         for variant in available_variants(allowed):
             for j in range(builtin_refinements + 1):
                 b_cpu, worst = 0.0, 0.0
-                for run, target in zip(transient, truth):
+                shown = time.monotonic()
+                for k, (run, target) in enumerate(zip(transient, truth)):
+                    if time.monotonic() - shown > 25.0:
+                        stage(f"{law}: built-in {variant} at dt/{2 ** j}: {k} of "
+                              f"{len(truth)} points")
+                        shown = time.monotonic()
                     dt = rig_module.recommended_timestep(run.rig) / 2 ** j
                     mean, seconds = _builtin_point(variant, run, config, dt)
                     b_cpu += seconds
                     worst = max(worst, abs(mean / target - 1)) if math.isfinite(mean) \
                         else math.inf
+                stage(f"{law}: built-in {variant} at dt/{2 ** j}: {b_cpu:.2f} s CPU, worst "
+                      f"error {worst:.2%}")
                 if worst <= CURVE_ACCURACY:
                     break
             routes.append({"variant": variant, "cpu_s": b_cpu, "refinement": j,
