@@ -12,14 +12,20 @@ multiplied by a factor that no vocabulary parameter makes (the reference's `leve
   position-only record: held out 0.853 % against the clean 0.828 %);
 - `clean`: none.
 
-Each is identified with LuGre, nothing declared, trained on one record and held out on another
-(another noise seed). Prints a Markdown table: what was selected, the held-out error of the
+Pairs (`drift+speed_shape`, `drift+load_2f`, `speed_shape+load_2f`) hide two at once (their
+factors multiplied). `--rig other` runs the same cases on a rig unlike the default one and with
+another law (issue 34's independent generator: 0.8 kg, k_d 1.2e5 N/m, 2.5 kHz, F_N 40 N, Dahl;
+the load modulation at twice its frequency).
+
+Each is identified with the record's law (LuGre on the default rig, Dahl on the other), nothing
+declared, trained on one record and held out on another (another noise seed). Prints a Markdown table: what was selected, the held-out error of the
 baseline and the final model, the verdict on the final model (adequate, or the regressor that
 leads its residual), and the time taken. Exits 1 when a record with an unnamed effect neither
 lowers the held-out error by a quarter nor is called inadequate, or the clean one is not
 called adequate with nothing selected (issue 34's criterion).
 
-    python scripts/check_unnamed_effects.py [--cases drift,speed_shape,...]
+    python scripts/check_unnamed_effects.py [--cases drift,speed_shape,drift+load_2f,...]
+                                            [--rig lab|other]
 """
 from __future__ import annotations
 
@@ -32,24 +38,47 @@ from dataclasses import replace
 from vibrofriction.data import synthetic
 from vibrofriction.identify import residual_diagnostics
 from vibrofriction.identify.simulation import identify_by_simulation
+from vibrofriction.params import default_friction
 
 T_S = synthetic.LAB_DURATION_S
-F_HZ = synthetic.BASE_RIG.vibration_frequency_Hz
-FACTORS = {
-    "clean": None,
-    "drift": lambda t, x, v: 1.0 + 0.12 * t / T_S,
-    "speed_shape": lambda t, x, v: 1.0 - 0.15 * min(abs(v) / 2e-3, 1.0)
-    + 10.0 * max(abs(v) - 2e-3, 0.0),
-    "load_2f": lambda t, x, v: 1.0 + 0.3 * math.sin(2 * math.pi * 2 * F_HZ * t),
-}
+SINGLE = ("clean", "drift", "speed_shape", "load_2f")
+PAIRS = ("drift+speed_shape", "drift+load_2f", "speed_shape+load_2f")
+# a rig unlike the default one, and its law (issue 34's independent generator's)
+OTHER_RIG = dict(mass_kg=0.8, drive_stiffness_N_per_m=1.2e5, vibration_frequency_Hz=2500.0,
+                 normal_force_N=40.0)
+OTHER_LAW = "dahl"
 
 
-def run(case: str) -> dict:
-    scenario = replace(synthetic.lab_scenario(None), level_factor=FACTORS[case])
+def factor(case: str, frequency_Hz: float):
+    """The level factor of a case (None: clean); a pair's is the product of its two."""
+    single = {
+        "drift": lambda t, x, v: 1.0 + 0.12 * t / T_S,
+        "speed_shape": lambda t, x, v: 1.0 - 0.15 * min(abs(v) / 2e-3, 1.0)
+        + 10.0 * max(abs(v) - 2e-3, 0.0),
+        "load_2f": lambda t, x, v: 1.0 + 0.3 * math.sin(2 * math.pi * 2 * frequency_Hz * t),
+    }
+    parts = [single[name] for name in case.split("+") if name != "clean"]
+    if not parts:
+        return None
+    return lambda t, x, v: math.prod(p(t, x, v) for p in parts)
+
+
+def scenario_of(case: str, rig: str) -> synthetic.Scenario:
+    scenario = synthetic.lab_scenario(None)
+    if rig == "other":
+        other = replace(scenario.rig, **OTHER_RIG).validate()
+        friction = replace(default_friction(OTHER_LAW, other),
+                           sensor_lag_s=scenario.friction.sensor_lag_s)
+        scenario = replace(scenario, rig=other, friction=friction)
+    return replace(scenario, level_factor=factor(case, scenario.rig.vibration_frequency_Hz))
+
+
+def run(case: str, rig: str = "lab") -> dict:
+    scenario = scenario_of(case, rig)
     train = synthetic.lab_record(scenario, name=f"{case}_train")
     held = synthetic.lab_record(replace(scenario, seed=7), name=f"{case}_held")
     started = time.monotonic()
-    result = identify_by_simulation(train, [held], law="lugre")
+    result = identify_by_simulation(train, [held], law=scenario.friction.law)
     verdict = residual_diagnostics.simulation_json(residual_diagnostics.for_simulation(result))
     channels = verdict.get("channels") or {}
     adequate = all(c.get("model_adequate", True) for c in channels.values()) \
@@ -71,18 +100,22 @@ def passes(row: dict) -> bool:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cases", default=",".join(FACTORS))
+    parser.add_argument("--cases", default=",".join(SINGLE),
+                        help=f"some of {', '.join(SINGLE + PAIRS)}")
+    parser.add_argument("--rig", choices=("lab", "other"), default="lab")
     args = parser.parse_args(argv)
     cases = [c.strip() for c in args.cases.split(",") if c.strip()]
-    unknown = [c for c in cases if c not in FACTORS]
+    unknown = [c for c in cases if c not in SINGLE + PAIRS]
     if unknown:
-        parser.error(f"unknown case(s) {', '.join(unknown)}; use some of {', '.join(FACTORS)}")
+        parser.error(f"unknown case(s) {', '.join(unknown)}; use some of "
+                     f"{', '.join(SINGLE + PAIRS)}")
+    print(f"rig: {args.rig}")
     print("| record | selected | held-out error, baseline -> final | final model | "
           "leading regressor | s | passes |")
     print("|---|---|---|---|---|---|---|")
     failed = 0
     for case in cases:
-        row = run(case)
+        row = run(case, args.rig)
         ok = passes(row)
         failed += not ok
         print(f"| {case} | {', '.join(row['selected']) or 'nothing'} | "
