@@ -295,3 +295,12 @@ def test_each_package_map_names_its_modules() -> None:
         named = set(re.findall(r"\b(\w+)(?:\.py)?\b", doc))
         modules = {p.stem for p in init.parent.glob("*.py") if p.name != "__init__.py"}
         assert modules <= named, (init.parent.name, sorted(modules - named))
+
+
+def test_plugin_configs_are_written_through_the_table() -> None:
+    """No scene builder writes a plugin's ``<config key=...>`` itself: configs go through
+    ``vibrofriction.sim`` (MjSpec, or ``instance_xml`` for MJCF text), whose keys are checked
+    against the vocabulary."""
+    writers = sorted(str(p.relative_to(PACKAGE)) for p in PACKAGE.rglob("*.py")
+                     if "<config key=" in p.read_text())
+    assert writers == ["sim/models.py"]
