@@ -25,7 +25,7 @@ lowers the held-out error by a quarter nor is called inadequate, or the clean on
 called adequate with nothing selected (issue 34's criterion).
 
     python scripts/check_unnamed_effects.py [--cases drift,speed_shape,drift+load_2f,...]
-                                            [--rig lab|other]
+                                            [--rig lab|other] [--law lugre|dahl|dupont]
 """
 from __future__ import annotations
 
@@ -63,18 +63,22 @@ def factor(case: str, frequency_Hz: float):
     return lambda t, x, v: math.prod(p(t, x, v) for p in parts)
 
 
-def scenario_of(case: str, rig: str) -> synthetic.Scenario:
+def scenario_of(case: str, rig: str, law: str | None = None) -> synthetic.Scenario:
+    """The lab scenario of ``case`` on ``rig`` (lab: LuGre; other: Dahl; ``law`` overrides)."""
     scenario = synthetic.lab_scenario(None)
     if rig == "other":
         other = replace(scenario.rig, **OTHER_RIG).validate()
-        friction = replace(default_friction(OTHER_LAW, other),
-                           sensor_lag_s=scenario.friction.sensor_lag_s)
-        scenario = replace(scenario, rig=other, friction=friction)
+        scenario = replace(scenario, rig=other,
+                           friction=replace(default_friction(law or OTHER_LAW, other),
+                                            sensor_lag_s=scenario.friction.sensor_lag_s))
+    elif law is not None:
+        scenario = replace(scenario, friction=replace(
+            default_friction(law, scenario.rig), sensor_lag_s=scenario.friction.sensor_lag_s))
     return replace(scenario, level_factor=factor(case, scenario.rig.vibration_frequency_Hz))
 
 
-def run(case: str, rig: str = "lab") -> dict:
-    scenario = scenario_of(case, rig)
+def run(case: str, rig: str = "lab", law: str | None = None) -> dict:
+    scenario = scenario_of(case, rig, law)
     train = synthetic.lab_record(scenario, name=f"{case}_train")
     held = synthetic.lab_record(replace(scenario, seed=7), name=f"{case}_held")
     started = time.monotonic()
@@ -103,19 +107,21 @@ def main(argv=None) -> int:
     parser.add_argument("--cases", default=",".join(SINGLE),
                         help=f"some of {', '.join(SINGLE + PAIRS)}")
     parser.add_argument("--rig", choices=("lab", "other"), default="lab")
+    parser.add_argument("--law", choices=("lugre", "dahl", "dupont"), default=None,
+                        help="the record's law (default: lugre on the lab rig, dahl on the other)")
     args = parser.parse_args(argv)
     cases = [c.strip() for c in args.cases.split(",") if c.strip()]
     unknown = [c for c in cases if c not in SINGLE + PAIRS]
     if unknown:
         parser.error(f"unknown case(s) {', '.join(unknown)}; use some of "
                      f"{', '.join(SINGLE + PAIRS)}")
-    print(f"rig: {args.rig}")
+    print(f"rig: {args.rig}, law: {args.law or ('lugre' if args.rig == 'lab' else OTHER_LAW)}")
     print("| record | selected | held-out error, baseline -> final | final model | "
           "leading regressor | s | passes |")
     print("|---|---|---|---|---|---|---|")
     failed = 0
     for case in cases:
-        row = run(case, args.rig)
+        row = run(case, args.rig, args.law)
         ok = passes(row)
         failed += not ok
         print(f"| {case} | {', '.join(row['selected']) or 'nothing'} | "
