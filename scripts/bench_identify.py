@@ -70,8 +70,8 @@ def main() -> None:
         print("| law | record | parameter errors | selected | simulations | wall s |")
         print("|---|---|---|---|---|---|")
     for law, (truth, declared) in ({} if args.lab_only else LAWS).items():
-        staged = replace(RIG, vibration_from_s=args.vibration_from)
-        run = rig.simulate(staged, truth, timestep_s=rig.recommended_timestep(staged),
+        staged_rig = replace(RIG, vibration_from_s=args.vibration_from)
+        run = rig.simulate(staged_rig, truth, timestep_s=rig.recommended_timestep(staged_rig),
                            duration_s=args.duration)
         full = dataset_of(run, law)
         position_only = Dataset(name=f"{law}_position_only",
