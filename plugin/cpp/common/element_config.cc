@@ -138,10 +138,8 @@ bool ReadLawParameters(const mjModel* m, int instance, const char* plugin, LawPa
                 "and vibrofriction.planar only; use dahl, lugre or dupont here", plugin);
     return false;
   }
-  const struct {
-    const char* attr;
-    double* target;  // (its default: the table's, vocabulary.h)
-  } numbers[] = {
+  // (each default: the table's, vocabulary.h)
+  if (!ReadNumbers(m, instance, plugin, {
       {kMu, &p.friction_coefficient},
       {kStiffness, &p.contact_stiffness},
       {kAlpha, &p.alpha},
@@ -153,11 +151,8 @@ bool ReadLawParameters(const mjModel* m, int instance, const char* plugin, LawPa
       {kNormalModulation, &p.normal_modulation},
       {kModulationFrequency, &p.normal_modulation_frequency},
       {kModulationPhase, &p.normal_modulation_phase},
-  };
-  for (const auto& spec : numbers) {
-    if (!ReadNumber(m, instance, plugin, spec.attr, spec.target)) {
-      return false;
-    }
+      })) {
+    return false;
   }
   if (p.friction_coefficient < 0) {
     return RejectAttribute(plugin, kMu, p.friction_coefficient, "must be >= 0");

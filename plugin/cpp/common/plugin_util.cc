@@ -147,6 +147,14 @@ bool ReadNumber(const mjModel* m, int instance, const char* plugin, const char* 
                      "report it)", plugin, attr);
 }
 
+bool ReadNumbers(const mjModel* m, int instance, const char* plugin,
+                 std::initializer_list<NumberKey> numbers) {
+  for (const NumberKey& number : numbers) {
+    if (!ReadNumber(m, instance, plugin, number.attr, number.target)) return false;
+  }
+  return true;
+}
+
 bool ReadBool(const mjModel* m, int instance, const char* plugin, const char* attr,
               bool default_value, bool* out) {
   const char* text = mj_getPluginConfig(m, instance, attr);

@@ -59,6 +59,15 @@ bool ReadNumber(const mjModel* m, int instance, const char* plugin, const char* 
 bool ReadNumber(const mjModel* m, int instance, const char* plugin, const char* attr,
                 double* out);
 
+// ReadNumber (the table's default) of each (key, target) in turn; false at the first that
+// fails.
+struct NumberKey {
+  const char* attr;
+  double* target;
+};
+bool ReadNumbers(const mjModel* m, int instance, const char* plugin,
+                 std::initializer_list<NumberKey> numbers);
+
 // Reads a whitespace-separated list of finite decimal numbers (each as ReadNumber's, at most
 // kLargestAttribute in magnitude); a missing key gives an empty list.
 bool ReadNumberList(const mjModel* m, int instance, const char* plugin, const char* attr,

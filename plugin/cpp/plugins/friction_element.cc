@@ -83,10 +83,8 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
   if (!NormalLoad::FromModel(m, instance, kPlugin, scope, &c.normal)) return false;
   p.normal_force = c.normal.normal;
 
-  const struct {
-    const char* attr;
-    double* target;  // (its default: the table's, vocabulary.h)
-  } numbers[] = {
+  // (each default: the table's, vocabulary.h)
+  if (!ReadNumbers(m, instance, kPlugin, {
       {kAsymmetry, &p.asymmetry},
       {kRipple, &p.ripple},
       {kRippleWavelength, &p.ripple_wavelength},
@@ -94,11 +92,8 @@ bool FrictionConfig::FromModel(const mjModel* m, int instance, FrictionConfig* c
       {kForceOffset, &p.force_offset},
       {kContactPlay, &p.contact_play},
       {kSensorLag, &c.sensor_lag},
-  };
-  for (const auto& spec : numbers) {
-    if (!ReadNumber(m, instance, kPlugin, spec.attr, spec.target)) {
-      return false;
-    }
+      })) {
+    return false;
   }
   if (!ReadLevelMap(m, instance, kPlugin, kPositionMapKnots, kPositionMapFactors,
                     kPositionMapPeriod, /*nonnegative_knots=*/false, &p.position_map) ||

@@ -676,9 +676,9 @@ def _gms_event(drive: _Rig, contact: _Contact, k: np.ndarray, limit: dict,
         modes[element] = s
         y[2 + element] = s * limit[s][element]
         return
-    y[1] = drive.support(t_event)[1]
-    modes[:] = 0
     _, udot, uddot = drive.support(t_event)
+    y[1] = udot  # v_r = 0
+    modes[:] = 0
     v = y[1] - udot
     acceleration = (drive.drive_force(t_event, y[0], y[1]) -
                     _gms_force(contact, k, v, y[2:])) / drive.m - uddot
